@@ -1,0 +1,132 @@
+"""Pinhole cameras and their pixel-centre rays, in numpy.
+
+Conventions (the same as the file formats, so rays never need converting):
+
+* **2D (NeRF2D)**: a pose is a 3x3 camera-to-world matrix in homogeneous 2D
+  coordinates. Column 0 is the viewing direction, column 1 the camera's "up" (towards
+  pixel row 0), column 2 the position. Pixel row ``i`` of an ``H``-pixel view looks
+  along ``normalize([f, H/2 - (i + 0.5)])`` in camera space.
+* **3D (Blender / nerfstudio / OpenGL)**: a pose is a 4x4 camera-to-world matrix;
+  the camera looks down -z with +y up and +x right. Pixel ``(row v, column u)`` looks
+  along ``normalize([(u + 0.5 - W/2) / f, -(v + 0.5 - H/2) / f, -1])``.
+
+Directions are unit length, so a depth is the distance along the pixel-centre ray.
+Images are ``[n, H, W, ...]``; a 2D view is ``H`` pixels tall and one pixel wide.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import MitnerfError
+
+
+@dataclass
+class Cameras:
+    """A set of pinhole cameras sharing one focal length and resolution."""
+
+    poses: np.ndarray
+    """``[n, 3, 3]`` (2D) or ``[n, 4, 4]`` (3D) camera-to-world matrices."""
+    focal: float
+    """Focal length in pixels."""
+    height: int
+    """Pixel rows (in 2D the length of the 1D image)."""
+    width: int = 1
+    """Pixel columns (1 in 2D)."""
+
+    def __post_init__(self):
+        self.poses = np.asarray(self.poses, dtype=np.float64)
+        if self.poses.ndim != 3 or self.poses.shape[1:] not in ((3, 3), (4, 4)):
+            raise MitnerfError(f"poses must be [n, 3, 3] (2D) or [n, 4, 4] (3D), got {self.poses.shape}")
+        bad = np.flatnonzero(~np.isfinite(self.poses).all(axis=(1, 2)))
+        if len(bad):
+            raise MitnerfError(f"pose {bad[0]} contains NaN or infinity; fix or drop that frame")
+        if not (np.isfinite(self.focal) and self.focal > 0):
+            raise MitnerfError(f"focal length must be a positive number of pixels, got {self.focal}")
+        if self.height < 1 or self.width < 1:
+            raise MitnerfError(f"resolution must be at least 1 pixel, got {self.height}x{self.width}")
+        if self.dim == 2 and self.width != 1:
+            raise MitnerfError("2D cameras see 1D images: width must be 1")
+
+    @property
+    def dim(self) -> int:
+        return 2 if self.poses.shape[-1] == 3 else 3
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    @property
+    def origins(self) -> np.ndarray:
+        """Camera positions, ``[n, dim]``."""
+        return self.poses[:, : self.dim, self.dim]
+
+    @property
+    def fov(self) -> float:
+        """Field of view in degrees along the image length (2D) or width (3D)."""
+        n = self.height if self.dim == 2 else self.width
+        return float(np.degrees(2 * np.arctan(n / (2 * self.focal))))
+
+    def subset(self, index) -> "Cameras":
+        return Cameras(self.poses[index], self.focal, self.height, self.width)
+
+    def camera_directions(self) -> np.ndarray:
+        """Unit pixel-centre directions in camera space, ``[H, W, dim]``."""
+        f, H, W = self.focal, self.height, self.width
+        if self.dim == 2:
+            d = np.stack([np.full(H, f), H / 2 - (np.arange(H) + 0.5)], -1)[:, None, :]
+        else:
+            u = (np.arange(W) + 0.5 - W / 2) / f
+            v = -(np.arange(H) + 0.5 - H / 2) / f
+            U, V = np.meshgrid(u, v)
+            d = np.stack([U, V, -np.ones_like(U)], -1)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Origins and unit directions of every pixel-centre ray, each ``[n, H, W, dim]``."""
+        k = self.dim
+        R = self.poses[:, :k, :k]
+        d = np.einsum("nij,hwj->nhwi", R, self.camera_directions())
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        o = np.broadcast_to(self.origins[:, None, None, :], d.shape)
+        return np.ascontiguousarray(o), d
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Continuous pixel coordinates of world points in every camera.
+
+        2D: ``points [m, 2]`` -> ``(row [n, m], forward [n, m])``. ``row`` is the
+        continuous image coordinate: the centre ray of pixel ``i`` passes through the
+        points with ``row == i + 0.5``, and pixel ``floor(row)`` sees the point.
+        ``forward`` is the camera-space distance along the view axis (> 0 in front).
+        """
+        if self.dim != 2:
+            raise NotImplementedError("project() is defined for 2D cameras")
+        inv = np.linalg.inv(self.poses)                       # world -> camera
+        p = np.c_[points, np.ones(len(points))]
+        cam = np.einsum("nij,mj->nmi", inv, p)                # [n, m, 3]
+        fwd, up = cam[..., 0], cam[..., 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            row = self.height / 2 - self.focal * up / fwd
+        return row, fwd
+
+    def mitsuba_frames(self) -> np.ndarray:
+        """``to_world`` matrices of Mitsuba ``perspective`` sensors, ``[n, 4, 4]``.
+
+        Mitsuba's camera looks down +z with +x to the left of the image and +y up.
+        In 2D the film is ``H x 1`` with its x axis along the 1D image, so film
+        column ``i`` is pixel row ``i``; in 3D the film is ``W x H``.
+        """
+        n = len(self)
+        M = np.zeros((n, 4, 4))
+        M[:, 3, 3] = 1
+        if self.dim == 2:
+            fwd = np.c_[self.poses[:, :2, 0], np.zeros(n)]
+            up2 = np.c_[self.poses[:, :2, 1], np.zeros(n)]
+            M[:, :3, 0] = up2                       # film x=0 (left) is pixel row 0
+            M[:, :3, 1] = np.cross(fwd, up2)        # +z for a proper rotation
+            M[:, :3, 2] = fwd
+            M[:, :3, 3] = np.c_[self.origins, np.zeros(n)]
+        else:
+            M[:] = self.poses @ np.diag([-1.0, 1.0, -1.0, 1.0])
+        return M

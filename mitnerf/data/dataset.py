@@ -1,0 +1,99 @@
+"""Datasets in memory: cameras and images per split, plus the scene's bounds.
+
+Colours are kept in display (sRGB) space, premultiplied over black, with coverage
+``alpha`` beside them, so any background can be composited later:
+``target = color + (1 - alpha) * background``. This matches what NeRF codes train on
+(8-bit sRGB PNGs); datasets rendered here also keep the exact linear floats.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import MitnerfError
+from .cameras import Cameras
+from .color import linear_to_srgb
+
+SPLITS = ("train", "val", "test")
+
+
+@dataclass
+class Split:
+    """The views of one split, all arrays ``[n, H, W, ...]``."""
+
+    cameras: Cameras
+    color: np.ndarray
+    """Display-space (sRGB) colour over black, float32 in [0, 1], ``[n, H, W, 3]``."""
+    alpha: np.ndarray
+    """Coverage in [0, 1], ``[n, H, W]`` (all ones when a format has no alpha)."""
+    depth: np.ndarray | None = None
+    """Distance along each pixel-centre ray, ``inf`` on a miss; ``None`` when unknown."""
+    mask: np.ndarray | None = None
+    """Whether the pixel-centre ray hits the object; ``None`` when unknown."""
+    linear: np.ndarray | None = None
+    """Exact linear RGB over black (datasets rendered here), ``[n, H, W, 3]``."""
+
+    def __post_init__(self):
+        n, H, W = len(self.cameras), self.cameras.height, self.cameras.width
+        if self.color.shape[0] != n:
+            raise MitnerfError(f"{self.color.shape[0]} images but {n} camera poses; "
+                               "every frame needs exactly one image")
+        if self.color.shape[1:] != (H, W, 3):
+            raise MitnerfError(f"images are {self.color.shape[1:3]} pixels but the cameras expect {(H, W)}; "
+                               "fix the resolution in the transforms file")
+        for name in ("depth", "mask"):
+            arr = getattr(self, name)
+            if arr is not None and arr.shape != (n, H, W):
+                raise MitnerfError(f"{name} maps have shape {arr.shape[1:]}, expected {(H, W)} for {n} frames")
+
+    @classmethod
+    def from_linear(cls, cameras: Cameras, linear, alpha, depth=None, mask=None) -> "Split":
+        return cls(cameras, linear_to_srgb(linear), alpha.astype(np.float32), depth, mask,
+                   linear.astype(np.float32))
+
+    def __len__(self) -> int:
+        return len(self.cameras)
+
+    def target(self, background=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """Colour composited over ``background`` (display space), ``[n, H, W, 3]``."""
+        bg = np.asarray(background, np.float32)
+        return self.color + (1.0 - self.alpha[..., None]) * bg
+
+    def subset(self, index) -> "Split":
+        pick = lambda a: None if a is None else a[index]
+        return Split(self.cameras.subset(index), self.color[index], self.alpha[index],
+                     pick(self.depth), pick(self.mask), pick(self.linear))
+
+
+@dataclass
+class Dataset:
+    """Splits ``train``/``val``/``test`` and what a renderer needs to know about them."""
+
+    splits: dict[str, Split]
+    near: float
+    """Smallest distance along any ray at which the object can start."""
+    far: float
+    """Largest distance along any ray at which the object can end."""
+    meta: dict = field(default_factory=dict)
+    """Provenance: scene, rig and render settings, source format, default background."""
+
+    def __getitem__(self, split: str) -> Split:
+        if split not in self.splits:
+            raise MitnerfError(f"dataset has no {split!r} split (it has {', '.join(self.splits)})")
+        return self.splits[split]
+
+    @property
+    def dim(self) -> int:
+        return next(iter(self.splits.values())).cameras.dim
+
+    @property
+    def background(self) -> tuple[float, float, float]:
+        return tuple(self.meta.get("background", (0.0, 0.0, 0.0) if self.dim == 2 else (1.0, 1.0, 1.0)))
+
+
+def bounds_from_cameras(cams: list[Cameras], radius: float, margin: float = 0.1) -> tuple[float, float]:
+    """Near/far for an object inside a sphere of ``radius`` at the origin."""
+    dist = np.concatenate([np.linalg.norm(c.origins, axis=1) for c in cams if len(c)])
+    return float(max(0.05, dist.min() - radius - margin)), float(dist.max() + radius + margin)

@@ -1,0 +1,193 @@
+"""Camera rigs: where the cameras stand, with Gaussian placement noise.
+
+The NeRF2D protocol: train and val cameras are placed at random (or evenly, for
+sparse-view studies) around the object and perturbed; test cameras are evenly
+spaced and noise-free. 2D rigs use a circle in the z = 0 plane; 3D rigs a sphere or
+the upper hemisphere, with test views on a 360 degree orbit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from ..errors import MitnerfError
+from .cameras import Cameras
+
+
+@dataclass
+class RigConfig:
+    """Camera placement. Every random draw comes from ``numpy.random.default_rng(seed)``."""
+
+    dim: Literal[2, 3] = 2
+    """2: a circle in the z = 0 plane (1D views). 3: a (hemi)sphere (2D images)."""
+    n_train: int = 50
+    """Training views (random and noisy)."""
+    n_val: int = 10
+    """Validation views (random and noisy)."""
+    n_test: int = 20
+    """Test views: evenly spaced, noise-free (in 3D: an orbit at ``test_elevation``)."""
+    radius: float | None = None
+    """Distance of the cameras from the origin (world units). Default: 4 in 2D (NeRF2D),
+    3.5 in 3D (the unit-sphere object then spans ~32 of the 40 degree view)."""
+    resolution: int = 100
+    """Pixels along the 1D image (2D) or along each side of the image (3D)."""
+    fov: float | None = None
+    """Field of view in degrees (2D: along the image; 3D: horizontal). Default: 53.13 in 2D
+    (the NeRF2D focal of 100 px at 100 px), 40 in 3D."""
+    layout: Literal["random", "even"] = "random"
+    """Train/val placement: uniform at random, or evenly spaced (sparse-view studies)."""
+    surface: Literal["hemisphere", "sphere"] = "hemisphere"
+    """3D only: where train/val cameras may stand."""
+    test_elevation: float = 25.0
+    """3D only: elevation of the test orbit in degrees."""
+    radius_std: float = 0.0
+    """Gaussian noise on the camera distance (world units)."""
+    angle_std: float = 0.0
+    """Gaussian noise on the placement angle(s) in degrees (2D: around the circle; 3D: azimuth and elevation)."""
+    position_std: float = 0.0
+    """Isotropic Gaussian jitter of the camera position (world units), after placement."""
+    look_std: float = 0.0
+    """Gaussian noise on the viewing direction in degrees (2D: one angle; 3D: yaw and pitch)."""
+    seed: int = 0
+    """Seed of the placement noise."""
+
+    def __post_init__(self):
+        if self.radius is None:
+            self.radius = 4.0 if self.dim == 2 else 3.5
+
+    @property
+    def focal(self) -> float:
+        fov = self.fov if self.fov is not None else (53.13010235415598 if self.dim == 2 else 40.0)
+        return self.resolution / 2 / np.tan(np.radians(fov) / 2)
+
+    def validate(self) -> None:
+        if self.dim not in (2, 3):
+            raise MitnerfError(f"rig dim must be 2 or 3, got {self.dim}")
+        if self.resolution < 1:
+            raise MitnerfError(f"resolution must be at least 1 pixel, got {self.resolution}; pass --resolution 100")
+        if self.n_train < 1:
+            raise MitnerfError(f"zero training views requested; pass --views N with N >= 1")
+        if self.n_val < 0 or self.n_test < 0:
+            raise MitnerfError("view counts cannot be negative")
+        if not self.radius > 0:
+            raise MitnerfError(f"camera radius must be positive, got {self.radius}")
+        for name in ("radius_std", "angle_std", "position_std", "look_std"):
+            if getattr(self, name) < 0:
+                raise MitnerfError(f"{name} is a standard deviation and cannot be negative")
+
+
+def noise_preset(level: float) -> dict[str, float]:
+    """Noise parameters scaled by one knob (``--noise``): 1 means radius 0.1, angles 2
+    degrees, position 0.05 and look-at 1 degree."""
+    return dict(radius_std=0.1 * level, angle_std=2.0 * level,
+                position_std=0.05 * level, look_std=1.0 * level)
+
+
+def look_at_2d(position: np.ndarray, view_angle: np.ndarray) -> np.ndarray:
+    """3x3 poses of cameras at ``position [n, 2]`` looking along ``view_angle [n]``."""
+    c, s = np.cos(view_angle), np.sin(view_angle)
+    P = np.zeros((len(c), 3, 3))
+    P[:, 0, 0], P[:, 1, 0] = c, s          # forward
+    P[:, 0, 1], P[:, 1, 1] = -s, c         # up: forward turned by +90 degrees
+    P[:, :2, 2] = position
+    P[:, 2, 2] = 1
+    return P
+
+
+def look_at_3d(position: np.ndarray, forward: np.ndarray, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """4x4 OpenGL-style poses (looking down -z) at ``position [n, 3]`` along ``forward``."""
+    f = forward / np.linalg.norm(forward, axis=1, keepdims=True)
+    right = np.cross(f, np.asarray(up, float))
+    right /= np.linalg.norm(right, axis=1, keepdims=True)
+    cam_up = np.cross(right, f)
+    P = np.zeros((len(f), 4, 4))
+    P[:, :3, 0], P[:, :3, 1], P[:, :3, 2], P[:, :3, 3] = right, cam_up, -f, position
+    P[:, 3, 3] = 1
+    return P
+
+
+def _place_2d(cfg: RigConfig, n: int, rng, noisy: bool, even: bool, offset: float = 0.0) -> np.ndarray:
+    if even:
+        angle = offset + 2 * np.pi * np.arange(n) / max(n, 1)
+    else:
+        angle = rng.uniform(0, 2 * np.pi, n)
+    radius = np.full(n, cfg.radius)
+    look = np.zeros(n)
+    jitter = np.zeros((n, 2))
+    if noisy:
+        angle = angle + np.radians(cfg.angle_std) * rng.standard_normal(n)
+        radius = radius + cfg.radius_std * rng.standard_normal(n)
+        jitter = cfg.position_std * rng.standard_normal((n, 2))
+        look = np.radians(cfg.look_std) * rng.standard_normal(n)
+    pos = radius[:, None] * np.stack([np.cos(angle), np.sin(angle)], 1) + jitter
+    target_dir = np.arctan2(-pos[:, 1], -pos[:, 0])     # look at the origin ...
+    return look_at_2d(pos, target_dir + look)           # ... up to the look-at noise
+
+
+def _place_3d(cfg: RigConfig, n: int, rng, noisy: bool, test: bool) -> np.ndarray:
+    max_el = np.radians(80.0)
+    if test:
+        az = 2 * np.pi * np.arange(n) / max(n, 1)
+        el = np.full(n, np.radians(cfg.test_elevation))
+    elif cfg.layout == "even":   # a Fibonacci lattice on the allowed band, randomly turned
+        k = np.arange(n) + 0.5
+        lo = 0.0 if cfg.surface == "hemisphere" else -np.sin(max_el)
+        el = np.arcsin(lo + (np.sin(max_el) - lo) * k / max(n, 1))
+        az = np.pi * (1 + 5 ** 0.5) * k + rng.uniform(0, 2 * np.pi)
+    else:                        # uniform on the sphere band (area-preserving)
+        lo = 0.0 if cfg.surface == "hemisphere" else -np.sin(max_el)
+        el = np.arcsin(rng.uniform(lo, np.sin(max_el), n))
+        az = rng.uniform(0, 2 * np.pi, n)
+    radius = np.full(n, cfg.radius)
+    jitter = np.zeros((n, 3))
+    yaw = pitch = np.zeros(n)
+    if noisy:
+        az = az + np.radians(cfg.angle_std) * rng.standard_normal(n)
+        el = np.clip(el + np.radians(cfg.angle_std) * rng.standard_normal(n), -max_el, max_el)
+        radius = radius + cfg.radius_std * rng.standard_normal(n)
+        jitter = cfg.position_std * rng.standard_normal((n, 3))
+        yaw = np.radians(cfg.look_std) * rng.standard_normal(n)
+        pitch = np.radians(cfg.look_std) * rng.standard_normal(n)
+    pos = radius[:, None] * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], 1) + jitter
+    P = look_at_3d(pos, -pos)
+    # look-at noise: turn the forward axis by (yaw, pitch) about the camera's up and right axes
+    f, r, u = -P[:, :3, 2], P[:, :3, 0], P[:, :3, 1]
+    f2 = (np.cos(yaw) * np.cos(pitch))[:, None] * f + np.sin(yaw)[:, None] * r + (np.cos(yaw) * np.sin(pitch))[:, None] * u
+    return look_at_3d(pos, f2)
+
+
+@dataclass
+class Rig:
+    """Cameras of every split."""
+
+    train: Cameras
+    val: Cameras
+    test: Cameras
+    config: RigConfig = field(repr=False)
+
+    def splits(self) -> dict[str, Cameras]:
+        return {"train": self.train, "val": self.val, "test": self.test}
+
+
+def make_rig(cfg: RigConfig) -> Rig:
+    """Place the cameras of every split (deterministic for ``cfg.seed``)."""
+    cfg.validate()
+    rng = np.random.default_rng(cfg.seed)
+    H = cfg.resolution
+    W = 1 if cfg.dim == 2 else cfg.resolution
+    even = cfg.layout == "even"
+    if cfg.dim == 2:
+        # even layouts are turned by a random offset so that they miss the test views
+        offset = rng.uniform(0, 2 * np.pi)
+        poses = [_place_2d(cfg, cfg.n_train, rng, True, even, offset),
+                 _place_2d(cfg, cfg.n_val, rng, True, even, offset + np.pi / max(cfg.n_val, 1)),
+                 _place_2d(cfg, cfg.n_test, rng, False, True)]
+    else:
+        poses = [_place_3d(cfg, cfg.n_train, rng, True, False),
+                 _place_3d(cfg, cfg.n_val, rng, True, False),
+                 _place_3d(cfg, cfg.n_test, rng, False, True)]
+    train, val, test = (Cameras(p, cfg.focal, H, W) for p in poses)
+    return Rig(train, val, test, cfg)

@@ -1,0 +1,31 @@
+"""A small binary PLY writer: positions, faces and optional per-vertex colour / UV.
+
+Mitsuba's PLY loader turns float ``r, g, b`` properties into the ``vertex_color``
+attribute and ``u, v`` into texture coordinates; VTK/pyvista read the same file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .._io import atomic_write_bytes
+
+
+def write_ply(path: str | Path, vertices: np.ndarray, faces: np.ndarray,
+              colors: np.ndarray | None = None, uv: np.ndarray | None = None) -> Path:
+    """Write a triangle mesh. ``vertices [v, 3]``, ``faces [f, 3]``, ``colors [v, 3]``, ``uv [v, 2]``."""
+    cols = [("x", vertices[:, 0]), ("y", vertices[:, 1]), ("z", vertices[:, 2])]
+    if uv is not None:
+        cols += [("u", uv[:, 0]), ("v", uv[:, 1])]
+    if colors is not None:
+        cols += [("r", colors[:, 0]), ("g", colors[:, 1]), ("b", colors[:, 2])]
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(vertices)}"]
+    header += [f"property float {name}" for name, _ in cols]
+    header += [f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
+    vdata = np.stack([c for _, c in cols], axis=1).astype("<f4")
+    fdata = np.empty(len(faces), dtype=[("n", "u1"), ("idx", "<i4", (3,))])
+    fdata["n"], fdata["idx"] = 3, faces
+    payload = ("\n".join(header) + "\n").encode() + vdata.tobytes() + fdata.tobytes()
+    return atomic_write_bytes(Path(path), payload)

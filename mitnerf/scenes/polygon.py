@@ -1,0 +1,210 @@
+"""Closed 2D outlines: validation, colour along the outline, and the extruded prism.
+
+A :class:`Polygon` is a simple (non-self-intersecting) closed ring of points. Input
+follows the GeoJSON convention: the last point repeats the first, so an *open*
+polyline is told apart from a closed one. Internally the ring is stored without the
+repeated point and counter-clockwise, so that every wall of the prism faces outward
+(Mitsuba's diffuse surfaces are one-sided).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MitnerfError
+
+
+def _segments_intersect(p, p2, q, q2) -> np.ndarray:
+    """Proper or touching intersection of segment sets [p, p2] and [q, q2] (broadcast)."""
+    def orient(a, b, c):
+        return np.sign((b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1])
+                       - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0]))
+
+    def on_segment(a, b, c):  # c collinear with a-b: is it inside the box?
+        return ((np.minimum(a[..., 0], b[..., 0]) <= c[..., 0]) & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]))
+                & (np.minimum(a[..., 1], b[..., 1]) <= c[..., 1]) & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1])))
+
+    o1, o2 = orient(p, p2, q), orient(p, p2, q2)
+    o3, o4 = orient(q, q2, p), orient(q, q2, p2)
+    proper = (o1 * o2 < 0) & (o3 * o4 < 0)
+    touch = (((o1 == 0) & on_segment(p, p2, q)) | ((o2 == 0) & on_segment(p, p2, q2))
+             | ((o3 == 0) & on_segment(q, q2, p)) | ((o4 == 0) & on_segment(q, q2, p2)))
+    return proper | touch
+
+
+def outline_color(s: np.ndarray) -> np.ndarray:
+    """Diffuse reflectance along the outline, ``s`` = arc length / perimeter in [0, 1).
+
+    A smooth hue cycle kept inside [0.12, 0.88] so that no wall is black or saturated.
+    Returns ``[len(s), 3]``.
+    """
+    phase = np.array([0.0, 1.0 / 3.0, 2.0 / 3.0])
+    return 0.5 + 0.38 * np.cos(2.0 * np.pi * (s[:, None] + phase))
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """A simple closed outline, counter-clockwise, without the repeated end point."""
+
+    points: np.ndarray  # [n, 2]
+    name: str = "custom"
+
+    # ----------------------------------------------------------------- construction
+    @classmethod
+    def from_points(cls, points, name: str = "custom") -> "Polygon":
+        """Validate a closed ring (last point == first point) and normalise its winding."""
+        try:
+            pts = np.asarray(points, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise MitnerfError(f"polygon {name!r}: points must be a list of [x, y] pairs") from None
+        if pts.ndim != 2 or pts.shape[1] != 2:
+            raise MitnerfError(
+                f"polygon {name!r}: expected a list of [x, y] points, got an array of shape "
+                f"{pts.shape}; write it as [[x0, y0], [x1, y1], ..., [x0, y0]]")
+        if not np.all(np.isfinite(pts)):
+            raise MitnerfError(f"polygon {name!r}: a point is NaN or infinite; give finite coordinates")
+        if len(pts) < 2 or not np.allclose(pts[0], pts[-1], atol=1e-9):
+            first, last = (pts[0].tolist(), pts[-1].tolist()) if len(pts) else ([], [])
+            raise MitnerfError(
+                f"polygon {name!r} is open: its last point {last} differs from its first {first}; "
+                "repeat the first point at the end to close it")
+        pts = pts[:-1]
+        if len(np.unique(np.round(pts, 12), axis=0)) != len(pts):
+            raise MitnerfError(f"polygon {name!r} repeats a vertex; remove the duplicate points")
+        if len(pts) < 3:
+            raise MitnerfError(f"polygon {name!r} has {len(pts)} distinct points; a closed outline needs at least 3")
+        poly = cls(pts, name)
+        bad = poly.self_intersections()
+        if bad:
+            i, j = bad[0]
+            raise MitnerfError(
+                f"polygon {name!r} is self-intersecting: edge {i} crosses edge {j}; "
+                "reorder or move the points so that the outline does not cross itself")
+        area = poly.signed_area()
+        if abs(area) < 1e-12:
+            raise MitnerfError(f"polygon {name!r} has zero area; its points are collinear")
+        if area < 0:
+            poly = cls(pts[::-1].copy(), name)
+        return poly
+
+    @classmethod
+    def from_json(cls, path: str | Path) -> "Polygon":
+        """Read ``{"name": ..., "points": [[x, y], ...]}`` or a bare list of points."""
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text())
+        except OSError as exc:
+            raise MitnerfError(f"cannot read polygon file {path}: {exc.strerror}; check the path") from None
+        except json.JSONDecodeError as exc:
+            raise MitnerfError(f"polygon file {path} is not valid JSON ({exc.msg} at line {exc.lineno}); fix the file") from None
+        if isinstance(data, dict):
+            return cls.from_points(data.get("points", []), data.get("name", path.stem))
+        return cls.from_points(data, path.stem)
+
+    # ----------------------------------------------------------------- geometry
+    @property
+    def edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Edge start and end points, each ``[n, 2]``."""
+        return self.points, np.roll(self.points, -1, axis=0)
+
+    def signed_area(self) -> float:
+        x, y = self.points[:, 0], self.points[:, 1]
+        return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+    def perimeter(self) -> float:
+        a, b = self.edges
+        return float(np.linalg.norm(b - a, axis=1).sum())
+
+    def radius(self) -> float:
+        """Largest distance of a vertex from the origin."""
+        return float(np.linalg.norm(self.points, axis=1).max())
+
+    def self_intersections(self) -> list[tuple[int, int]]:
+        """Pairs of non-adjacent edges that touch or cross."""
+        a, b = self.edges
+        n = len(a)
+        i, j = np.triu_indices(n, k=2)
+        keep = ~((i == 0) & (j == n - 1))  # the first and last edges share a vertex
+        i, j = i[keep], j[keep]
+        hit = _segments_intersect(a[i], b[i], a[j], b[j])
+        return list(zip(i[hit].tolist(), j[hit].tolist()))
+
+    def contains(self, xy: np.ndarray) -> np.ndarray:
+        """Even-odd inside test for points ``[m, 2]``."""
+        from matplotlib.path import Path as MplPath
+
+        return MplPath(self.points).contains_points(np.asarray(xy))
+
+    def intersect(self, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+        """Distance along each ray to the first wall, ``inf`` on a miss.
+
+        Analytic ray-segment intersection in numpy (the reference the rendered depth
+        is tested against). ``origins, dirs``: ``[m, 2]``; returns ``[m]``.
+        """
+        a, b = self.edges
+        e = b - a                                        # [n, 2]
+        o, d = origins[:, None, :], dirs[:, None, :]     # [m, 1, 2]
+        denom = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
+        w = a[None] - o
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / denom
+            u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
+        ok = (np.abs(denom) > 1e-12) & (t > 1e-9) & (u >= 0) & (u <= 1)
+        return np.where(ok, t, np.inf).min(axis=1)
+
+    # ----------------------------------------------------------------- the prism
+    def resampled(self, max_len: float) -> tuple[np.ndarray, np.ndarray]:
+        """Outline points with no wall segment longer than ``max_len`` (for smooth colour).
+
+        Returns the points ``[m, 2]`` and their arc-length fraction ``s`` ``[m]``.
+        """
+        a, b = self.edges
+        pts, s, acc, total = [], [], 0.0, self.perimeter()
+        for p, q in zip(a, b):
+            seg = float(np.linalg.norm(q - p))
+            k = max(1, int(np.ceil(seg / max_len)))
+            for t in np.arange(k) / k:
+                pts.append(p + t * (q - p))
+                s.append((acc + t * seg) / total)
+            acc += seg
+        return np.array(pts), np.array(s)
+
+    def prism(self, half_height: float = 1.0, max_len: float = 0.05):
+        """Triangle mesh of the outline extruded to ``z in [-h, h]``, walls outward.
+
+        Every wall segment owns four vertices (flat walls), coloured by
+        :func:`outline_color`; the caps are triangulated with VTK. Returns
+        ``(vertices [v, 3], faces [f, 3], colors [v, 3])``.
+        """
+        import pyvista as pv
+
+        pts, s = self.resampled(max_len)
+        nxt = np.roll(pts, -1, axis=0)
+        col = outline_color(s)
+        col_nxt = np.roll(col, -1, axis=0)
+        m = len(pts)
+        h = half_height
+        v = np.empty((m, 4, 3))
+        v[:, 0, :2], v[:, 1, :2], v[:, 2, :2], v[:, 3, :2] = pts, nxt, nxt, pts
+        v[:, :, 2] = [-h, -h, h, h]
+        c = np.stack([col, col_nxt, col_nxt, col], axis=1)
+        base = 4 * np.arange(m)[:, None]
+        faces = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]])
+        verts, cols = v.reshape(-1, 3), c.reshape(-1, 3)
+
+        cap = pv.PolyData(np.c_[self.points, np.zeros(len(self.points))],
+                          faces=np.r_[len(self.points), np.arange(len(self.points))]).triangulate()
+        tri = cap.faces.reshape(-1, 4)[:, 1:]
+        k = len(self.points)
+        cap_col = np.full((k, 3), 0.5)  # grey caps: never seen from the z = 0 plane
+        top = np.c_[self.points, np.full(k, h)]
+        bottom = np.c_[self.points, np.full(k, -h)]
+        n0 = len(verts)
+        verts = np.concatenate([verts, top, bottom])
+        cols = np.concatenate([cols, cap_col, cap_col])
+        faces = np.concatenate([faces, n0 + tri, n0 + k + tri[:, ::-1]])
+        return verts.astype(np.float32), faces.astype(np.int32), cols.astype(np.float32)
