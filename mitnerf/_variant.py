@@ -34,10 +34,11 @@ def check_llvm() -> tuple[int, int, int]:
 
 
 def select_variant(name: str | None = None) -> str:
-    """Select a Mitsuba variant (default: ``$MITNERF_VARIANT`` or ``llvm_ad_rgb``)."""
+    """Select a Mitsuba variant: ``name``, else ``$MITNERF_VARIANT``, else the variant the
+    caller already set, else ``llvm_ad_rgb``."""
     import mitsuba as mi
 
-    name = name or os.environ.get("MITNERF_VARIANT", DEFAULT_VARIANT)
+    name = name or os.environ.get("MITNERF_VARIANT") or mi.variant() or DEFAULT_VARIANT
     if name.startswith("llvm"):
         check_llvm()
     if name not in mi.variants():

@@ -17,3 +17,16 @@ def srgb_to_linear(x: np.ndarray) -> np.ndarray:
 
 def to_uint8(x: np.ndarray) -> np.ndarray:
     return (np.clip(x, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def display_color(linear: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Display-space colour premultiplied by coverage, from linear colour over black.
+
+    The straight (un-premultiplied) colour is sRGB-encoded, then multiplied by alpha,
+    as for a straight-alpha sRGB PNG composited in display space: the result never
+    exceeds alpha, so ``color + (1 - alpha) * background`` stays within [0, 1].
+    ``linear [..., 3]``, ``alpha [...]``.
+    """
+    a = np.asarray(alpha, np.float32)[..., None]
+    straight = np.where(a > 0, np.asarray(linear) / np.maximum(a, 1e-8), 0.0)
+    return (linear_to_srgb(straight) * a).astype(np.float32)

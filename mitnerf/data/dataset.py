@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import MitnerfError
 from .cameras import Cameras
-from .color import linear_to_srgb
+from .color import display_color
 
 SPLITS = ("train", "val", "test")
 
@@ -25,7 +25,8 @@ class Split:
 
     cameras: Cameras
     color: np.ndarray
-    """Display-space (sRGB) colour over black, float32 in [0, 1], ``[n, H, W, 3]``."""
+    """Display-space (sRGB) colour premultiplied by ``alpha`` (i.e. over black), float32,
+    ``[n, H, W, 3]``; see :func:`~mitnerf.data.color.display_color`."""
     alpha: np.ndarray
     """Coverage in [0, 1], ``[n, H, W]`` (all ones when a format has no alpha)."""
     depth: np.ndarray | None = None
@@ -50,7 +51,7 @@ class Split:
 
     @classmethod
     def from_linear(cls, cameras: Cameras, linear, alpha, depth=None, mask=None) -> "Split":
-        return cls(cameras, linear_to_srgb(linear), alpha.astype(np.float32), depth, mask,
+        return cls(cameras, display_color(linear, alpha), alpha.astype(np.float32), depth, mask,
                    linear.astype(np.float32))
 
     def __len__(self) -> int:

@@ -50,4 +50,6 @@ def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderS
         meta["polygon"] = np.r_[scene.polygon.points, scene.polygon.points[:1]].tolist()
     if scene.mesh is not None:
         meta["mesh"] = str(scene.mesh)
+    if "texture" in scene.variables:
+        meta["texture"] = scene.variables["texture"]
     return Dataset(splits, near, far, meta)

@@ -24,12 +24,16 @@ def all_lights_integrator():
         def sample(self, scene, sampler, ray, medium=None, active=True):
             si = scene.ray_intersect(ray, active)
             valid = si.is_valid() & active
+            if not dr.is_jit_v(mi.Float) and not valid:   # scalar: no masking, si.bsdf() would crash
+                return mi.Spectrum(0.0), False, []
             bsdf = si.bsdf(ray)
             ctx = mi.BSDFContext()
             result = mi.Spectrum(0.0)
             for emitter in scene.emitters():      # unrolled: ground-truth scenes have few lights
                 ds, weight = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), valid)
-                visible = valid & (ds.pdf > 0) & ~scene.ray_test(si.spawn_ray_to(ds.p), valid)
+                lit = valid & (ds.pdf > 0)
+                # dr.select, not ~: in scalar variants ~True is the int -2
+                visible = lit & dr.select(scene.ray_test(si.spawn_ray_to(ds.p), lit), False, True)
                 f = bsdf.eval(ctx, si, si.to_local(ds.d), visible)
                 result += dr.select(visible, f * weight, 0.0)
             return result, valid, []

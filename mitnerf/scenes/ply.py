@@ -29,3 +29,32 @@ def write_ply(path: str | Path, vertices: np.ndarray, faces: np.ndarray,
     fdata["n"], fdata["idx"] = 3, faces
     payload = ("\n".join(header) + "\n").encode() + vdata.tobytes() + fdata.tobytes()
     return atomic_write_bytes(Path(path), payload)
+
+
+def read_ply(path: str | Path) -> dict[str, np.ndarray]:
+    """Read back what :func:`write_ply` wrote: ``vertices``, ``faces`` and, when
+    present, ``colors`` and ``uv``."""
+    raw = Path(path).read_bytes()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    lines = raw[:end].decode().splitlines()
+    if "format binary_little_endian 1.0" not in lines:
+        raise ValueError(f"{path}: only binary little-endian PLY files written by mitnerf are supported")
+    n_vert = n_face = 0
+    names = []
+    for line in lines:
+        parts = line.split()
+        if parts[:2] == ["element", "vertex"]:
+            n_vert = int(parts[2])
+        elif parts[:2] == ["element", "face"]:
+            n_face = int(parts[2])
+        elif parts[:2] == ["property", "float"]:
+            names.append(parts[2])
+    vdata = np.frombuffer(raw, "<f4", n_vert * len(names), end).reshape(n_vert, len(names))
+    fdata = np.frombuffer(raw, [("n", "u1"), ("idx", "<i4", (3,))], n_face, end + vdata.nbytes)
+    col = {name: vdata[:, k] for k, name in enumerate(names)}
+    out = {"vertices": np.stack([col["x"], col["y"], col["z"]], 1), "faces": fdata["idx"].copy()}
+    if "r" in col:
+        out["colors"] = np.stack([col["r"], col["g"], col["b"]], 1)
+    if "u" in col:
+        out["uv"] = np.stack([col["u"], col["v"]], 1)
+    return out

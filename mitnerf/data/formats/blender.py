@@ -26,7 +26,7 @@ import numpy as np
 from ..._io import atomic_dir
 from ...errors import MitnerfError
 from ..cameras import Cameras
-from ..color import linear_to_srgb, to_uint8
+from ..color import display_color, to_uint8
 from ..dataset import SPLITS, Dataset, Split
 from .common import read_image, read_json, read_meta, write_meta
 
@@ -110,7 +110,7 @@ def _read_frames(root: Path, header: dict, frames: list[dict], where: str) -> Sp
     if all(p.exists() for p in lpaths):
         lin = np.stack([np.load(p) for p in lpaths])
         linear, a = lin[..., :3], lin[..., 3]
-        color = linear_to_srgb(linear)
+        color = display_color(linear, a)
     return Split(cams, color.astype(np.float32), a.astype(np.float32), depth, mask, linear)
 
 

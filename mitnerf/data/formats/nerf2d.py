@@ -23,7 +23,7 @@ import numpy as np
 from ..._io import atomic_dir
 from ...errors import MitnerfError
 from ..cameras import Cameras
-from ..color import linear_to_srgb, to_uint8
+from ..color import display_color, to_uint8
 from ..dataset import SPLITS, Dataset, Split
 from .common import read_image, read_json, read_meta, write_meta
 
@@ -104,7 +104,7 @@ def _read_split(d: Path) -> Split:
         if all("rgb_linear" in f and "alpha" in f for f in files):
             linear = np.stack([f["rgb_linear"].reshape(H, 1, 3) for f in files]).astype(np.float32)
             alpha = np.stack([f["alpha"].reshape(H, 1) for f in files]).astype(np.float32)
-            color = linear_to_srgb(linear)
+            color = display_color(linear, alpha)
     return Split(cams, color.astype(np.float32), alpha.astype(np.float32), depth, mask, linear)
 
 

@@ -3,7 +3,8 @@
 
 Splits follow the tiny-NeRF notebook: the first ``min(100, N - 2)`` frames train,
 the next one validates, the rest test (frame 101, the notebook's test view, among
-them). The file carries no depth or alpha; near and far default to 2 and 6.
+them); files written here add ``n_train`` and ``n_val`` keys, which take precedence.
+The file carries no depth or alpha; near and far default to 2 and 6.
 """
 
 from __future__ import annotations
@@ -32,8 +33,10 @@ def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dat
         raise MitnerfError(f"{path}: {len(images)} images but {len(poses)} poses; they must match one to one")
     if len(images) < 3:
         raise MitnerfError(f"{path} has {len(images)} frames; need at least 3 (train, val, test)")
-    n_train = min(100, len(images) - 2)
-    index = {"train": slice(0, n_train), "val": slice(n_train, n_train + 1), "test": slice(n_train + 1, None)}
+    n_train = int(data["n_train"]) if "n_train" in data else min(100, len(images) - 2)
+    n_val = int(data["n_val"]) if "n_val" in data else 1
+    index = {"train": slice(0, n_train), "val": slice(n_train, n_train + n_val),
+             "test": slice(n_train + n_val, None)}
     H, W = images.shape[1:3]
     splits = {}
     for name, sl in index.items():
@@ -48,10 +51,9 @@ def write_tiny_nerf(dataset: Dataset, path: str | Path) -> Path:
     if dataset.dim != 3:
         raise MitnerfError("tiny-NeRF files hold 3D datasets only")
     order = [dataset[s] for s in ("train", "val", "test")]
-    if len(order[1]) != 1 or len(order[0]) > 100:
-        raise MitnerfError("tiny-NeRF files have <= 100 train views and exactly one val view")
     images = np.concatenate([s.target(dataset.background) for s in order]).astype(np.float32)
     poses = np.concatenate([s.cameras.poses for s in order]).astype(np.float32)
     buf = io.BytesIO()
-    np.savez(buf, images=images, poses=poses, focal=np.float32(order[0].cameras.focal))
+    np.savez(buf, images=images, poses=poses, focal=np.float32(order[0].cameras.focal),
+             n_train=len(order[0]), n_val=len(order[1]))
     return atomic_write_bytes(Path(path), buf.getvalue())
