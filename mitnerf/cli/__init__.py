@@ -9,9 +9,9 @@ import argparse
 import sys
 
 from ..errors import MitnerfError
-from . import data_cmds
+from . import data_cmds, fit_cmd
 
-COMMANDS = [data_cmds]
+COMMANDS = [data_cmds, fit_cmd]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,16 @@
+"""PyTorch twins of the fields, by family name (as ``mitnerf.fields.FIELDS``)."""
+
+from __future__ import annotations
+
+from ...fields import field_config
+from .mlp import NeRFField
+
+TORCH_FIELDS = {"vanilla": NeRFField}
+
+
+def make_field(kind: str, **kwargs):
+    if kind not in TORCH_FIELDS:
+        from ...errors import MitnerfError
+
+        raise MitnerfError(f"field {kind!r} has no PyTorch twin; use --backend drjit")
+    return TORCH_FIELDS[kind](field_config(kind, **kwargs))

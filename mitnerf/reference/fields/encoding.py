@@ -1,0 +1,32 @@
+"""Twin of :mod:`mitnerf.fields.encoding` (same features, same order)."""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+
+def positional_encoding(x: torch.Tensor, L: int) -> torch.Tensor:
+    """``x [n, D]`` -> ``[n, D (1 + 2 L)]``: x, then sin and cos of 2^k pi x per k."""
+    out = [x]
+    for k in range(L):
+        a = x * float(2.0 ** k * math.pi)
+        out += [torch.sin(a), torch.cos(a)]
+    return torch.cat(out, dim=-1)
+
+
+def angle_harmonics(d: torch.Tensor, L: int) -> torch.Tensor:
+    """``d [n, 2]`` unit vectors -> ``[n, 2 L]``: cos/sin of 1, 2, 4, .. times the angle."""
+    if L == 0:
+        return d[:, :0]
+    c, s = d[:, 0], d[:, 1]
+    out = [c, s]
+    for _ in range(1, L):
+        c, s = c * c - s * s, 2.0 * s * c
+        out += [c, s]
+    return torch.stack(out, dim=-1)
+
+
+def direction_encoding(d: torch.Tensor, L: int) -> torch.Tensor:
+    return angle_harmonics(d, L) if d.shape[-1] == 2 else positional_encoding(d, L)

@@ -1,0 +1,67 @@
+"""Twin of :mod:`mitnerf.fields.mlp`: the vanilla NeRF field as a ``torch.nn.Module``.
+
+Parameter names equal the canonical Dr.Jit names (``trunk.0.weight`` ...), so
+``state_dict()`` and ``NeRFField.to_numpy()`` are interchangeable.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from ...fields.mlp import NeRFConfig, init_weights, layer_shapes
+from .encoding import direction_encoding, positional_encoding
+
+
+def density_activation(raw: torch.Tensor, kind: str) -> torch.Tensor:
+    if kind == "relu":
+        return torch.relu(raw)
+    if kind == "softplus":
+        return torch.relu(raw) + torch.log(1.0 + torch.exp(-torch.abs(raw)))
+    if kind == "trunc_exp":
+        return torch.exp(torch.clamp(raw, max=15.0))
+    raise ValueError(f"unknown density activation {kind!r}")
+
+
+class NeRFField(nn.Module):
+    traceable = False
+
+    def __init__(self, cfg: NeRFConfig):
+        super().__init__()
+        self.cfg = cfg
+        self.dim = cfg.dim
+        shapes = {name: (o, i) for name, o, i in layer_shapes(cfg)}
+        self.trunk = nn.ModuleList(nn.Linear(shapes[f"trunk.{k}"][1], shapes[f"trunk.{k}"][0])
+                                   for k in range(cfg.depth))
+        self.sigma = nn.Linear(cfg.width, 1)
+        self.color = nn.ModuleList([nn.Linear(shapes["color.0"][1], shapes["color.0"][0]),
+                                    nn.Linear(shapes["color.1"][1], 3)])
+
+    def init_params(self, seed: int = 0) -> None:
+        self.load_numpy(init_weights(self.cfg, seed))
+
+    def load_numpy(self, arrays) -> None:
+        self.load_state_dict({k: torch.as_tensor(v) for k, v in arrays.items()})
+
+    def to_numpy(self) -> dict:
+        return {k: v.detach().cpu().numpy().copy() for k, v in self.state_dict().items()}
+
+    def _trunk(self, x: torch.Tensor) -> torch.Tensor:
+        enc = positional_encoding(x / self.cfg.bound, self.cfg.pos_L)
+        h = enc
+        for k, layer in enumerate(self.trunk):
+            if k == self.cfg.skip and k > 0:
+                h = torch.cat([h, enc], dim=-1)
+            h = torch.relu(layer(h))
+        return h
+
+    def density(self, x: torch.Tensor) -> torch.Tensor:
+        return density_activation(self.sigma(self._trunk(x))[..., 0], self.cfg.density_activation)
+
+    def query(self, x: torch.Tensor, d: torch.Tensor):
+        """``x, d [n, D]`` -> ``sigma [n]``, ``rgb [n, 3]``."""
+        h = self._trunk(x)
+        sigma = density_activation(self.sigma(h)[..., 0], self.cfg.density_activation)
+        c = torch.cat([h, direction_encoding(d, self.cfg.dir_L)], -1) if self.cfg.view_dependent else h
+        rgb = torch.sigmoid(self.color[1](torch.relu(self.color[0](c))))
+        return sigma, rgb

@@ -1,0 +1,41 @@
+"""Twin of :mod:`mitnerf.render.volume` / :mod:`~mitnerf.render.autodiff`: the volume
+integral in PyTorch autograd (all samples flat, exclusive cumulative sums)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+
+@dataclass
+class RenderOutput:
+    rgb: torch.Tensor       # [n_rays, 3]
+    depth: torch.Tensor     # [n_rays]
+    opacity: torch.Tensor   # [n_rays]
+    weights: torch.Tensor | None = None   # [n_rays, N]
+
+
+def integrate(sigma, rgb, t, t_next, background) -> RenderOutput:
+    """``sigma, t, t_next [n_rays, N]``, ``rgb [n_rays, N, 3]``."""
+    sd = sigma * (t_next - t)
+    cum = torch.cumsum(sd, dim=1)
+    T = torch.exp(-torch.cat([torch.zeros_like(cum[:, :1]), cum[:, :-1]], dim=1))
+    w = T * (1.0 - torch.exp(-sd))
+    T_end = torch.exp(-cum[:, -1])
+    bg = torch.as_tensor(background, dtype=rgb.dtype)
+    C = (w[..., None] * rgb).sum(1) + T_end[:, None] * bg
+    return RenderOutput(C, (w * t).sum(1), 1.0 - T_end, w)
+
+
+def volume_render(field, origins, directions, near, far, sampler, background=(0.0, 0.0, 0.0),
+                  weights: bool = False) -> RenderOutput:
+    """``origins, directions [n_rays, D]`` -> :class:`RenderOutput`."""
+    n, D = origins.shape
+    t, t_next = sampler.points(n, near, far)
+    N = t.shape[1]
+    x = origins[:, None, :] + t[..., None] * directions[:, None, :]
+    d = directions[:, None, :].expand(n, N, D)
+    sigma, rgb = field.query(x.reshape(-1, D), d.reshape(-1, D))
+    out = integrate(sigma.reshape(n, N), rgb.reshape(n, N, 3), t, t_next, background)
+    return out if weights else RenderOutput(out.rgb, out.depth, out.opacity)

@@ -1,0 +1,22 @@
+"""Twin of :mod:`mitnerf.train.losses`."""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+EPS = 1e-5
+
+
+def mse(rgb: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    return torch.mean((rgb - target) ** 2)
+
+
+def depth_kl(weights, t, t_next, depth, hit, sigma: float) -> torch.Tensor:
+    """``weights, t, t_next [n_rays, N]``, ``depth, hit [n_rays]``."""
+    delta = t_next - t
+    z = (t - depth[:, None]) / sigma
+    log_q = -0.5 * z * z - math.log(sigma * math.sqrt(2.0 * math.pi))
+    per_ray = (torch.exp(log_q) * delta * (log_q - torch.log(weights / delta + EPS))).sum(1) * hit
+    return per_ray.sum() / torch.clamp(hit.sum(), min=1.0)

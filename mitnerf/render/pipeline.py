@@ -1,0 +1,109 @@
+"""A NeRF model: fields plus how to render them (coarse pass, optional fine pass).
+
+``Model.render`` samples each ray with :class:`~.samplers.Stratified` (``n_coarse``),
+integrates, and when ``n_fine > 0`` draws ``n_fine`` more samples from the coarse
+weights (:func:`~.samplers.importance_sample`) and integrates the fine field over all
+``n_coarse + n_fine`` samples, as NeRF does. Parameters of all fields live in one flat
+dict with prefixed keys (``coarse.mlp``, ``fine.trunk.0.weight``, ...), which is what
+an optimizer holds. Twin: :mod:`mitnerf.reference.render.pipeline`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import drjit as dr
+from drjit.auto.ad import Float, UInt32
+
+from .integral import RenderOutput
+from .samplers import Stratified, importance_sample
+from .volume import volume_render
+
+
+@dataclass
+class RenderConfig:
+    """How rays are sampled and integrated."""
+
+    n_coarse: int = 64
+    """Stratified samples per ray."""
+    n_fine: int = 0
+    """Importance samples per ray drawn from the coarse weights (0: no fine pass)."""
+    separate_fine: bool = True
+    """Give the fine pass its own field (NeRF); otherwise the coarse field is reused."""
+    background: tuple = (0.0, 0.0, 0.0)
+    """Colour behind the object (display space)."""
+    method: str = "replay"
+    """``replay`` (custom operation) or ``autodiff`` (plain AD, the check)."""
+
+
+def split_params(params: dict, prefix: str) -> dict:
+    p = prefix + "."
+    return {k[len(p):]: v for k, v in params.items() if k.startswith(p)}
+
+
+def join_params(**groups: dict) -> dict:
+    return {f"{g}.{k}": v for g, sub in groups.items() for k, v in sub.items()}
+
+
+@dataclass
+class Model:
+    """Fields and a render configuration."""
+
+    fields: dict
+    """``{'coarse': field}`` and, with a separate fine pass, ``'fine'``."""
+    render_cfg: RenderConfig = field(default_factory=RenderConfig)
+
+    @property
+    def dim(self) -> int:
+        return self.fields["coarse"].dim
+
+    def init_params(self, seed: int) -> dict:
+        return join_params(**{name: f.init_params(seed + k) for k, (name, f) in enumerate(self.fields.items())})
+
+    def to_numpy(self, params: dict) -> dict:
+        return {f"{g}.{k}": v for g, f in self.fields.items() for k, v in f.to_numpy(split_params(params, g)).items()}
+
+    def from_numpy(self, arrays: dict) -> dict:
+        return join_params(**{g: f.from_numpy(split_params(arrays, g)) for g, f in self.fields.items()})
+
+    def n_final(self) -> int:
+        """Samples per ray of the final pass."""
+        return self.render_cfg.n_coarse + max(self.render_cfg.n_fine, 0)
+
+    def final_field(self):
+        """The field whose output is the model's answer (fine if present)."""
+        return "fine" if "fine" in self.fields else "coarse"
+
+    def density(self, params: dict, x) -> Float:
+        g = self.final_field()
+        return self.fields[g].density(split_params(params, g), x)
+
+    def render(self, params: dict, origins: list, directions: list, near, far, seed: UInt32,
+               training: bool, weights: bool = False, input_grads: bool = False) -> dict:
+        """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
+        ``'samples': (t, t_next)`` of the final pass when ``weights`` is set."""
+        cfg = self.render_cfg
+        n = dr.width(origins[0])
+        near, far = Float(near), Float(far)
+        coarse = Stratified(cfg.n_coarse, seed, jitter=training)
+        pc = split_params(params, "coarse")
+        out_c = volume_render(self.fields["coarse"], pc, origins, directions, near, far, coarse, cfg.background,
+                              method=cfg.method, weights=weights or cfg.n_fine > 0, input_grads=input_grads)
+        if cfg.n_fine <= 0:
+            result = {"coarse": out_c, "fine": None}
+            if weights:
+                result["samples"] = coarse.points(n, near, far)
+            return result
+        t, t_next = coarse.points(n, near, far)
+        fine = importance_sample(t, t_next, out_c.weights, n, cfg.n_coarse, cfg.n_fine, seed, training)
+        g = "fine" if "fine" in self.fields else "coarse"
+        out_f = volume_render(self.fields[g], split_params(params, g), origins, directions, near, far, fine,
+                              cfg.background, method=cfg.method, weights=weights, input_grads=input_grads)
+        result = {"coarse": out_c if weights else RenderOutput(out_c.rgb, out_c.depth, out_c.opacity), "fine": out_f}
+        if weights:
+            result["samples"] = fine.points(n, near, far)
+        return result
+
+
+def final(outputs: dict) -> RenderOutput:
+    return outputs["fine"] if outputs.get("fine") is not None else outputs["coarse"]

@@ -1,0 +1,132 @@
+"""Where along each ray the field is sampled (Dr.Jit; twin: ``mitnerf.reference.render.samplers``).
+
+A sampler gives the sorted sample distances ``t_0 < ... < t_{N-1}`` of every ray in
+``[near, far)``; ``t_N = far`` closes the last interval, so ``delta_i = t_{i+1} - t_i``
+(NeRF's quadrature). Samplers answer ``t(ray, i)`` for one ray step at a time (the
+fused integral calls it inside its loop and again in the replay, storing nothing)
+and ``points()`` for all samples at once.
+
+* :class:`Stratified`: ``t_i = near + (i + u_i) (far - near) / N``, ``u_i = 1/2`` or jittered
+  by a counter-based hash of (seed, ray, i): reproducible, and identical in the twin.
+* :class:`Explicit`: given distances, e.g. from :func:`importance_sample` (NeRF's
+  hierarchical sampling: inverse-CDF draws from coarse weights, merged with the
+  coarse samples).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import drjit as dr
+from drjit.auto.ad import Float, UInt32
+
+
+def hash_u32(x: UInt32) -> UInt32:
+    """Wellons' lowbias32 integer hash (bijective on 32-bit integers)."""
+    x = x ^ (x >> 16)
+    x = x * 0x7FEB352D
+    x = x ^ (x >> 15)
+    x = x * 0x846CA68B
+    return x ^ (x >> 16)
+
+
+def uniform(seed: UInt32, ray: UInt32, i: UInt32) -> Float:
+    """A uniform number in [0, 1) for (seed, ray, i), 24 random bits."""
+    h = hash_u32(hash_u32(hash_u32(seed) ^ ray) ^ (i * 0x9E3779B9))
+    return Float(h >> 8) * (1.0 / 16777216.0)
+
+
+@dataclass
+class Stratified:
+    """One sample per equal bin of [near, far], at the bin centre or jittered in it."""
+
+    n: int
+    """Samples per ray."""
+    seed: UInt32
+    """Per-step seed (pass ``dr.opaque(UInt32, k)`` in frozen functions)."""
+    jitter: bool = True
+    """Jitter each sample inside its bin (training); centres otherwise."""
+
+    def t(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> Float:
+        u = uniform(self.seed, ray, i) if self.jitter else Float(0.5)
+        t = near + (Float(i) + u) * ((far - near) * (1.0 / self.n))
+        return dr.select(i >= self.n, far, t)
+
+    def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
+        """``t`` and ``t_next`` of all samples, ray-major, each ``[n_rays * n]``."""
+        return flat_points(self, n_rays, near, far)
+
+
+@dataclass
+class Explicit:
+    """Given sorted distances per ray, ``t`` of shape ``[n_rays * n]`` (ray-major)."""
+
+    t_flat: Float
+    n: int
+
+    def t(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> Float:
+        inside = i < self.n
+        t = dr.gather(Float, self.t_flat, ray * self.n + dr.minimum(i, self.n - 1), inside)
+        return dr.select(inside, t, far)
+
+    def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
+        return flat_points(self, n_rays, near, far)
+
+
+def flat_points(sampler, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
+    idx = dr.arange(UInt32, n_rays * sampler.n)
+    ray, i = idx // sampler.n, idx % sampler.n
+    nr, fr = per_sample(near, ray), per_sample(far, ray)
+    return sampler.t(ray, i, nr, fr), sampler.t(ray, i + 1, nr, fr)
+
+
+def per_sample(value: Float, ray: UInt32) -> Float:
+    """Broadcast a per-ray (or scalar) quantity to samples."""
+    return value if dr.width(value) == 1 else dr.gather(Float, value, ray)
+
+
+def count_below(sorted_flat: Float, block: int, base: UInt32, query: Float, strict: bool = True) -> UInt32:
+    """Per lane: how many of the ``block`` sorted values starting at ``base`` are ``< query``
+    (``<= query`` when not ``strict``); ``searchsorted`` per ray, as a branchless binary search."""
+    lo = dr.zeros(UInt32, dr.width(query))
+    step = 1 << (block.bit_length() - 1)
+    while step:
+        cand = lo + step
+        v = dr.gather(Float, sorted_flat, base + dr.minimum(cand, block) - 1)
+        ok = (cand <= block) & ((v < query) if strict else (v <= query))
+        lo = dr.select(ok, cand, lo)
+        step >>= 1
+    return lo
+
+
+def importance_sample(t: Float, t_next: Float, weights: Float, n_rays: int, n_coarse: int, n_fine: int,
+                      seed: UInt32, jitter: bool) -> Explicit:
+    """NeRF's hierarchical sampling: ``n_fine`` draws from the piecewise-constant density
+    of the coarse ``weights`` on the coarse intervals ``[t, t_next)``, merged with the coarse
+    samples (sorted, ``n_coarse + n_fine`` per ray). Inputs ``[n_rays * n_coarse]``, detached."""
+    Nc, Nf = n_coarse, n_fine
+    w = dr.detach(weights) + 1e-5                     # never a zero-probability ray
+    cdf = dr.block_prefix_sum(w, Nc, exclusive=False)
+    total = dr.block_sum(w, Nc)
+    idx = dr.arange(UInt32, n_rays * Nf)
+    ray, j = idx // Nf, idx % Nf
+    u = (Float(j) + (uniform(seed ^ 0x5BD1E995, ray, j) if jitter else 0.5)) * (1.0 / Nf)   # sorted in j
+    target = u * dr.gather(Float, total, ray)
+    base = ray * Nc
+    k = dr.minimum(count_below(cdf, Nc, base, target), Nc - 1)      # bin whose cdf first reaches the target
+    cdf_hi = dr.gather(Float, cdf, base + k)
+    wk = dr.gather(Float, w, base + k)
+    frac = dr.clip((target - (cdf_hi - wk)) / wk, 0.0, 1.0)
+    lo, hi = dr.gather(Float, t, base + k), dr.gather(Float, t_next, base + k)
+    t_new = lo + frac * (hi - lo)
+    # merge the two sorted lists of each ray: an element's rank is its own index plus the
+    # number of elements of the other list before it (ties: the coarse sample first)
+    N = Nc + Nf
+    cidx = dr.arange(UInt32, n_rays * Nc)
+    cray, ci = cidx // Nc, cidx % Nc
+    rank_c = ci + count_below(t_new, Nf, cray * Nf, t, strict=True)
+    rank_f = j + count_below(t, Nc, base, t_new, strict=False)
+    out = dr.zeros(Float, n_rays * N)
+    dr.scatter(out, t, cray * N + rank_c, mode=dr.ReduceMode.Permute)
+    dr.scatter(out, t_new, ray * N + rank_f, mode=dr.ReduceMode.Permute)
+    return Explicit(out, N)

@@ -1,0 +1,135 @@
+"""The Dr.Jit backend: the model, Adam (``drjit.opt``), and one frozen training step."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import drjit as dr
+import numpy as np
+from drjit.auto.ad import Float, UInt32
+from drjit.opt import Adam
+
+from ..fields import make_field
+from ..render.pipeline import Model, final
+from ..render.samplers import hash_u32
+from .config import ModelConfig, TrainConfig
+from .losses import depth_kl, mse
+from .rays import RaySet
+
+
+@dataclass
+class DeviceRays:
+    """A :class:`RaySet` as Dr.Jit arrays (a PyTree, so frozen steps see it as input)."""
+
+    origins: list
+    directions: list
+    target: list
+    depth: Float
+    hit: Float
+
+
+def to_device(rays: RaySet) -> DeviceRays:
+    cols = lambda a: [Float(np.ascontiguousarray(c)) for c in a.T]
+    return DeviceRays(cols(rays.origins), cols(rays.directions), cols(rays.target),
+                      Float(rays.depth), Float(rays.hit))
+
+
+def build_model(cfg: ModelConfig, dim: int, bound: float) -> Model:
+    args = {**cfg.field_args, "dim": dim, "bound": bound}
+    fields = {"coarse": make_field(cfg.field, **args)}
+    if cfg.render.n_fine > 0 and cfg.render.separate_fine:
+        fields["fine"] = make_field(cfg.field, **args)
+    return Model(fields, cfg.render)
+
+
+class DrJitBackend:
+    name = "drjit"
+
+    def __init__(self, model_cfg: ModelConfig, dim: int, bound: float, near: float, far: float,
+                 train_cfg: TrainConfig):
+        dr.set_thread_count(train_cfg.threads)
+        self.model = build_model(model_cfg, dim, bound)
+        self.near, self.far = float(near), float(far)
+        self.cfg = train_cfg
+        self.opt = Adam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2,
+                        epsilon=train_cfg.eps, params=self.model.init_params(train_cfg.seed))
+        self.data = None
+        self._frozen = dr.freeze(self._make_step())
+
+    # ------------------------------------------------------------------ training
+    def set_data(self, rays: RaySet) -> None:
+        self.data = to_device(rays)
+        self.n_pixels = len(rays)
+
+    def _make_step(self):
+        model, cfg = self.model, self.cfg
+        near, far = self.near, self.far
+        B = cfg.batch_rays
+        use_depth = cfg.depth_weight > 0
+
+        def step(opt, data, n_pixels, seed, lr):
+            opt.set_learning_rate(lr)
+            idx = hash_u32(hash_u32(seed) ^ dr.arange(UInt32, B)) % n_pixels
+            g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
+            o, d, target = g(data.origins), g(data.directions), g(data.target)
+            params = {k: opt[k] for k in opt.keys()}
+            outs = model.render(params, o, d, near, far, seed, training=True, weights=use_depth)
+            out = final(outs)
+            loss = mse(out.rgb, target)
+            if outs["fine"] is not None and cfg.coarse_weight > 0:
+                loss = loss + cfg.coarse_weight * mse(outs["coarse"].rgb, target)
+            if use_depth:
+                t, t_next = outs["samples"]
+                loss = loss + cfg.depth_weight * depth_kl(out.weights, t, t_next, dr.gather(Float, data.depth, idx),
+                                                          dr.gather(Float, data.hit, idx), model.n_final(), cfg.depth_sigma)
+            dr.backward(loss)
+            opt.step()
+            return loss
+
+        return step
+
+    def step(self, seed: int, lr: float) -> Float:
+        """One optimisation step; returns the loss (not yet read back)."""
+        return self._frozen(self.opt, self.data, dr.opaque(UInt32, self.n_pixels),
+                            dr.opaque(UInt32, seed), dr.opaque(Float, lr))
+
+    @staticmethod
+    def scalar(loss) -> float:
+        return float(loss[0])
+
+    # ------------------------------------------------------------------ inference
+    @property
+    def params(self) -> dict:
+        return {k: self.opt[k] for k in self.opt.keys()}
+
+    def render(self, origins: np.ndarray, directions: np.ndarray, chunk: int | None = None) -> dict:
+        """Render rays ``[P, D]`` (no jitter) -> numpy ``rgb [P, 3]``, ``depth``, ``opacity``."""
+        chunk = chunk or (65536 if self.model.fields["coarse"].traceable else 8192)
+        parts = []
+        params = {k: dr.detach(v) for k, v in self.params.items()}
+        with dr.suspend_grad():
+            for s in range(0, len(origins), chunk):
+                o = [Float(np.ascontiguousarray(c)) for c in origins[s:s + chunk].T]
+                d = [Float(np.ascontiguousarray(c)) for c in directions[s:s + chunk].T]
+                out = final(self.model.render(params, o, d, self.near, self.far, UInt32(0), training=False))
+                dr.eval(out.rgb, out.depth, out.opacity)
+                parts.append((np.stack([np.asarray(c) for c in out.rgb], 1), np.asarray(out.depth),
+                              np.asarray(out.opacity)))
+        if not parts:
+            return {"rgb": np.zeros((0, 3), np.float32), "depth": np.zeros(0, np.float32),
+                    "opacity": np.zeros(0, np.float32)}
+        return {k: np.concatenate([p[i] for p in parts]) for i, k in enumerate(("rgb", "depth", "opacity"))}
+
+    def density(self, x: np.ndarray) -> np.ndarray:
+        """Density of the final field at points ``[m, D]``."""
+        with dr.suspend_grad():
+            p = {k: dr.detach(v) for k, v in self.params.items()}
+            s = self.model.density(p, [Float(np.ascontiguousarray(c)) for c in x.T.astype(np.float32)])
+            return np.asarray(s)
+
+    def get_weights(self) -> dict[str, np.ndarray]:
+        return self.model.to_numpy(self.params)
+
+    def set_weights(self, arrays: dict[str, np.ndarray]) -> None:
+        for k, v in self.model.from_numpy(arrays).items():
+            self.opt[k] = v

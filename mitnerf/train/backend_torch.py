@@ -1,0 +1,97 @@
+"""The PyTorch backend (the reference): the torch twin of the model, ``torch.optim.Adam``,
+and the same batches and sample jitter as the Dr.Jit backend."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .config import ModelConfig, TrainConfig
+from .rays import RaySet, batch_indices
+
+
+def build_torch_model(cfg: ModelConfig, dim: int, bound: float):
+    from ..reference.fields import make_field
+    from ..reference.render.pipeline import Model
+
+    args = {**cfg.field_args, "dim": dim, "bound": bound}
+    fields = {"coarse": make_field(cfg.field, **args)}
+    if cfg.render.n_fine > 0 and cfg.render.separate_fine:
+        fields["fine"] = make_field(cfg.field, **args)
+    return Model(fields, cfg.render)
+
+
+class TorchBackend:
+    name = "torch"
+
+    def __init__(self, model_cfg: ModelConfig, dim: int, bound: float, near: float, far: float,
+                 train_cfg: TrainConfig):
+        import torch
+
+        torch.set_num_threads(train_cfg.threads)
+        self.torch = torch
+        self.model = build_torch_model(model_cfg, dim, bound)
+        from .backend_drjit import build_model
+
+        twin = build_model(model_cfg, dim, bound)          # the same initial weights as the Dr.Jit backend
+        self.model.load_numpy(twin.to_numpy(twin.init_params(train_cfg.seed)))
+        self.near, self.far = float(near), float(far)
+        self.cfg = train_cfg
+        self.opt = torch.optim.Adam(self.model.parameters(), lr=train_cfg.lr, betas=(train_cfg.beta1, train_cfg.beta2),
+                                    eps=train_cfg.eps)
+
+    def set_data(self, rays: RaySet) -> None:
+        t = self.torch
+        self.data = {k: t.from_numpy(np.ascontiguousarray(getattr(rays, k)))
+                     for k in ("origins", "directions", "target", "depth", "hit")}
+        self.n_pixels = len(rays)
+
+    def step(self, seed: int, lr: float):
+        from ..reference.train.losses import depth_kl, mse
+
+        cfg = self.cfg
+        for group in self.opt.param_groups:
+            group["lr"] = lr
+        idx = self.torch.from_numpy(batch_indices(seed, cfg.batch_rays, self.n_pixels))
+        b = {k: v[idx] for k, v in self.data.items()}
+        use_depth = cfg.depth_weight > 0
+        outs = self.model.render(b["origins"], b["directions"], self.near, self.far, seed, training=True,
+                                 weights=use_depth)
+        out = outs["fine"] if outs["fine"] is not None else outs["coarse"]
+        loss = mse(out.rgb, b["target"])
+        if outs["fine"] is not None and cfg.coarse_weight > 0:
+            loss = loss + cfg.coarse_weight * mse(outs["coarse"].rgb, b["target"])
+        if use_depth:
+            t, t_next = outs["samples"]
+            loss = loss + cfg.depth_weight * depth_kl(out.weights, t, t_next, b["depth"], b["hit"], cfg.depth_sigma)
+        self.opt.zero_grad(set_to_none=True)
+        loss.backward()
+        self.opt.step()
+        return loss.detach()
+
+    @staticmethod
+    def scalar(loss) -> float:
+        return float(loss.item())
+
+    def render(self, origins: np.ndarray, directions: np.ndarray, chunk: int = 8192) -> dict:
+        t = self.torch
+        parts = []
+        with t.no_grad():
+            for s in range(0, len(origins), chunk):
+                o, d = t.from_numpy(origins[s:s + chunk]), t.from_numpy(directions[s:s + chunk])
+                outs = self.model.render(o, d, self.near, self.far, 0, training=False)
+                out = outs["fine"] if outs["fine"] is not None else outs["coarse"]
+                parts.append((out.rgb.numpy(), out.depth.numpy(), out.opacity.numpy()))
+        if not parts:
+            return {"rgb": np.zeros((0, 3), np.float32), "depth": np.zeros(0, np.float32),
+                    "opacity": np.zeros(0, np.float32)}
+        return {k: np.concatenate([p[i] for p in parts]) for i, k in enumerate(("rgb", "depth", "opacity"))}
+
+    def density(self, x: np.ndarray) -> np.ndarray:
+        with self.torch.no_grad():
+            return self.model.density(self.torch.from_numpy(x.astype(np.float32))).numpy()
+
+    def get_weights(self) -> dict[str, np.ndarray]:
+        return self.model.to_numpy()
+
+    def set_weights(self, arrays: dict[str, np.ndarray]) -> None:
+        self.model.load_numpy(arrays)
