@@ -34,10 +34,11 @@ from .base import DENSITY_ACTIVATIONS, density_activation, sigmoid
 from .dense import dense, row, stack_rows
 from .encoding import direction_encoding, encoded_size, positional_encoding
 
-COOPVEC_MAX_WIDTH = 16
-"""Widest layer for which ``mode='auto'`` uses cooperative vectors (measured on 2
-cores: at width 16 both modes cost about the same per training step; at width 32 the
-tensor mode is 2x faster, at 128 more than 10x)."""
+COOPVEC_MAX_WIDTH = 8
+"""Widest layer for which ``mode='auto'`` uses cooperative vectors. Measured with
+``benchmarks/coopvec_vs_tensor.py`` (2 cores, depth 4, 64 samples x 1024 rays, ms per
+training step, coopvec / tensor): width 8: 22.5 / 26.7, 16: 53.9 / 37.5,
+32: 163 / 58.5, 64: 607 / 115, 128: 1651 / 275."""
 
 
 @dataclass

@@ -68,7 +68,11 @@ class DrJitBackend:
         use_depth = cfg.depth_weight > 0
 
         def step(opt, data, n_pixels, seed, lr):
-            opt.set_learning_rate(lr)
+            # Dr.Jit 1.5.0's Adam multiplies an array-valued learning rate *in place* by each
+            # parameter's bias correction (opt._LRCache.product: `scale_o *= arg`), so one
+            # shared array compounds across parameters and flips signs. Each parameter gets
+            # its own copy, every step.
+            opt.set_learning_rate({k: Float(lr) for k in opt.keys()})
             idx = hash_u32(hash_u32(seed) ^ dr.arange(UInt32, B)) % n_pixels
             g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
             o, d, target = g(data.origins), g(data.directions), g(data.target)

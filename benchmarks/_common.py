@@ -1,0 +1,71 @@
+"""Shared helpers of the benchmarks: a small bunny dataset, backends, timing."""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import drjit as dr
+import numpy as np
+
+import mitnerf  # noqa: F401
+
+
+def bunny(n_train: int = 50):
+    from mitnerf.data.generate import make_dataset
+    from mitnerf.data.rig import RigConfig, noise_preset
+    from mitnerf.scenes.registry import get_scene
+
+    return make_dataset(get_scene("bunny"), RigConfig(dim=2, n_train=n_train, n_val=4, n_test=8,
+                                                      **noise_preset(1.0)), progress=False)
+
+
+def backend(name, model_cfg, dataset, batch=1024, threads=2):
+    from mitnerf.train.config import TrainConfig
+    from mitnerf.train.rays import rays_of
+    from mitnerf.train.trainer import make_backend, scene_bound
+
+    tc = TrainConfig(batch_rays=batch, threads=threads, progress=False)
+    be = make_backend(name, model_cfg, dataset.dim, scene_bound(dataset), dataset.near, dataset.far, tc)
+    be.set_data(rays_of(dataset["train"], model_cfg.render.background))
+    return be
+
+
+def time_step(be, k: int) -> float:
+    """Seconds of one training step (synchronised)."""
+    t0 = time.perf_counter()
+    be.scalar(be.step(1000 + k, 1e-3))
+    if be.name == "drjit":
+        dr.sync_thread()
+    return time.perf_counter() - t0
+
+
+def alternate(backends: dict, rounds: int, warmup: int = 3) -> dict:
+    """Median step time of each backend, the runs interleaved (same machine state)."""
+    for be in backends.values():
+        for k in range(warmup):
+            time_step(be, k)
+    times = {name: [] for name in backends}
+    for r in range(rounds):
+        for name, be in backends.items():
+            times[name].append(time_step(be, warmup + r))
+    return {name: statistics.median(t) for name, t in times.items()}
+
+
+def gemm_peak() -> float:
+    """fp32 GEMM GFLOP/s of this machine (best of torch and Dr.Jit on 2048^3)."""
+    import torch
+    from drjit.auto.ad import TensorXf
+
+    a = np.random.default_rng(0).random((2048, 2048), dtype=np.float32)
+    A, T = TensorXf(a), torch.from_numpy(a)
+    best = 0.0
+    for f in (lambda: dr.eval(dr.matmul(A, A)) or dr.sync_thread(), lambda: T @ T):
+        f()
+        ts = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            f()
+            ts.append(time.perf_counter() - t0)
+        best = max(best, 2 * 2048 ** 3 / min(ts) / 1e9)
+    return best
