@@ -12,8 +12,13 @@ line; exits 1 on failure.
 
 fp32 tolerances, against (c) for values and (b) for gradients:
   values       max |err| <= 1e-5 (colours and opacities are O(1); depths O(5): 5e-5)
-  gradients    max |err| / max |reference| <= 1e-3: 2^L-frequency encodings amplify
-               fp32 rounding of positions (errors ~1e-5 relative at L = 8)
+  gradients    max |err| / max |reference| <= 5e-3. Typically ~1e-5 (2^L-frequency
+               encodings amplify the fp32 rounding of positions). The slack is for ReLU
+               kinks: when a pre-activation lies within rounding of zero, Dr.Jit's FMAs
+               and torch's GEMM accumulation can put it on different sides, and that
+               sample's gradient changes by a finite step (seen: 1.6e-3 on a 16-ray,
+               width-8 case, where an fp64 reference sided with one backend). Bugs give
+               errors of 1e-2 and more.
   finite diff. central differences in fp32 (eps 1e-2 on 18 weights of a 2-layer,
                width-8 softplus field, 3 rays x 8 samples): |fd - grad| <= 2e-2 x
                max(|grad|, |fd|, 10 % of the largest gradient of that tensor)
@@ -30,7 +35,7 @@ import numpy as np
 
 import mitnerf  # noqa: F401
 
-TOL_VALUE, TOL_DEPTH, TOL_GRAD, TOL_FD = 1e-5, 5e-5, 1e-3, 2e-2
+TOL_VALUE, TOL_DEPTH, TOL_GRAD, TOL_FD = 1e-5, 5e-5, 5e-3, 2e-2
 
 
 def make_rays(dim: int, n: int, seed: int):

@@ -149,7 +149,8 @@ class VolumeIntegral(dr.CustomOp):
                     g = g + dr.gather(Float, dW, ray * N + i)
                 R = R - w * g
                 d_sigma = (t_next - t) * (T_next * g - R)
-                dr.backward_from(sigma * d_sigma + _dot3(rgb, [w * dc for dc in dC]))
+                dr.backward_from(sigma * d_sigma + _dot3(rgb, [w * dc for dc in dC]),
+                                 flags=dr.ADFlag.Default | dr.ADFlag.AllowNoGrad)
                 if input_grads:
                     gx = [dr.grad(xi) for xi in x]
                     go = [a + b for a, b in zip(go, gx)]
