@@ -1,0 +1,26 @@
+"""``mitnerf experiment NAME --out DIR [--quick] [--seed S]``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def register(sub) -> None:
+    from ..experiments import EXPERIMENTS
+
+    p = sub.add_parser("experiment", help="run an experiment; writes CSV, figures and report.md")
+    p.add_argument("name", choices=list(EXPERIMENTS))
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--quick", action="store_true", help="a small version (about 2 minutes)")
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(run=run_experiment)
+
+
+def run_experiment(args) -> int:
+    from ..experiments import get_experiment
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    report = get_experiment(args.name).run(out, quick=args.quick, seed=args.seed)
+    print(f"wrote {report}")
+    return 0
