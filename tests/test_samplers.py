@@ -9,10 +9,11 @@ from mitnerf.render.samplers import Stratified, importance_sample
 
 
 def test_stratified_without_jitter_is_the_bin_centres():
-    # near 2, far 6, 4 samples: bins of width 1 -> centres 2.5, 3.5, 4.5, 5.5; t_next closes with far
-    t, t_next = Stratified(4, UInt32(0), jitter=False).points(1, Float(2.0), Float(6.0))
+    # near 2, far 6, 4 samples: bins of width 1 -> centres 2.5, 3.5, 4.5, 5.5; the last interval
+    # closes at far, so delta = 1, 1, 1, 0.5
+    t, delta = Stratified(4, UInt32(0), jitter=False).points(1, Float(2.0), Float(6.0))
     np.testing.assert_allclose(np.asarray(t), [2.5, 3.5, 4.5, 5.5])
-    np.testing.assert_allclose(np.asarray(t_next), [3.5, 4.5, 5.5, 6.0])
+    np.testing.assert_allclose(np.asarray(delta), [1.0, 1.0, 1.0, 0.5])
 
 
 def test_jitter_stays_in_its_bin_and_matches_the_twin():
@@ -28,10 +29,10 @@ def test_jitter_stays_in_its_bin_and_matches_the_twin():
 
 def test_importance_sampling_concentrates_and_merges():
     rays, nc, nf = 64, 8, 16
-    t, t_next = Stratified(nc, UInt32(3), jitter=False).points(rays, Float(0.0), Float(8.0))
+    t, delta = Stratified(nc, UInt32(3), jitter=False).points(rays, Float(0.0), Float(8.0))
     w = np.full((rays, nc), 1e-6, np.float32)
     w[:, 5] = 1.0                                       # all weight in the bin [5, 6)
-    fine = importance_sample(t, t_next, Float(w.ravel()), rays, nc, nf, UInt32(9), True)
+    fine = importance_sample(t, delta, Float(w.ravel()), rays, nc, nf, UInt32(9), True)
     merged = np.asarray(fine.t_flat).reshape(rays, nc + nf)
     assert (np.diff(merged, axis=1) >= 0).all()          # sorted per ray
     coarse = np.asarray(t).reshape(rays, nc)

@@ -9,9 +9,9 @@ import argparse
 import sys
 
 from ..errors import MitnerfError
-from . import data_cmds, experiment_cmd, fit_cmd
+from . import data_cmds, experiment_cmd, fit_cmd, sweep_cmd, video_cmd
 
-COMMANDS = [data_cmds, fit_cmd, experiment_cmd]
+COMMANDS = [data_cmds, fit_cmd, experiment_cmd, sweep_cmd, video_cmd]
 
 
 def build_parser() -> argparse.ArgumentParser:

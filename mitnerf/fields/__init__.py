@@ -7,10 +7,14 @@ protocol in :mod:`mitnerf.fields.base`.
 
 from __future__ import annotations
 
+from .grid import GridConfig, GridField
+from .hashgrid import HashGridConfig, HashGridField
 from .mlp import NeRFConfig, NeRFField
 
 FIELDS: dict[str, tuple[type, type]] = {
     "vanilla": (NeRFConfig, NeRFField),
+    "grid": (GridConfig, GridField),
+    "hashgrid": (HashGridConfig, HashGridField),
 }
 
 

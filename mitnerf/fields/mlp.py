@@ -25,14 +25,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import drjit as dr
-import drjit.nn as nn
 import numpy as np
-from drjit.auto.ad import Float, TensorXf
+from drjit.auto.ad import Float
 
 from .base import DENSITY_ACTIVATIONS, density_activation, sigmoid
-from .dense import dense, row, stack_rows
 from .encoding import direction_encoding, encoded_size, positional_encoding
+from .layers import LinearLayers, torch_default_init
 
 COOPVEC_MAX_WIDTH = 8
 """Widest layer for which ``mode='auto'`` uses cooperative vectors. Measured with
@@ -105,12 +103,7 @@ def layer_shapes(cfg: NeRFConfig) -> list[tuple[str, int, int]]:
 def init_weights(cfg: NeRFConfig, seed: int) -> dict[str, np.ndarray]:
     """PyTorch's ``nn.Linear`` default, U(-1/sqrt(in), 1/sqrt(in)) for weights and biases,
     drawn from numpy so that both backends can start from identical weights."""
-    rng = np.random.default_rng(seed)
-    out = {}
-    for name, o, i in layer_shapes(cfg):
-        k = 1.0 / np.sqrt(i)
-        out[f"{name}.weight"] = rng.uniform(-k, k, (o, i)).astype(np.float32)
-        out[f"{name}.bias"] = rng.uniform(-k, k, o).astype(np.float32)
+    out = torch_default_init(layer_shapes(cfg), np.random.default_rng(seed))
     out["sigma.bias"] += np.float32(cfg.density_bias)
     return out
 
@@ -123,55 +116,16 @@ class NeRFField:
         self.dim = cfg.dim
         self.mode = cfg.resolved_mode
         self.traceable = self.mode == "coopvec"
-        self.shapes = layer_shapes(cfg)
-        self._view_specs = None
+        self.layers = LinearLayers(layer_shapes(cfg), self.mode)
 
-    # ------------------------------------------------------------------ storage
     def init_params(self, seed: int = 0) -> dict:
         return self.from_numpy(init_weights(self.cfg, seed))
 
     def from_numpy(self, arrays: dict[str, np.ndarray]) -> dict:
-        mats = []
-        for name, o, i in self.shapes:
-            w, b = np.asarray(arrays[f"{name}.weight"]), np.asarray(arrays[f"{name}.bias"])
-            if w.shape != (o, i) or b.shape != (o,):
-                raise ValueError(f"{name}: expected weight {(o, i)} and bias {(o,)}, got {w.shape}, {b.shape}; "
-                                 "the checkpoint was saved with another architecture")
-            mats += [TensorXf(w.astype(np.float32)), TensorXf(b.astype(np.float32))]
-        if self.mode == "tensor":
-            names = [f"{n}.{k}" for n, _, _ in self.shapes for k in ("weight", "bias")]
-            return dict(zip(names, mats))
-        views = nn.pack(*mats, layout="training")
-        self._view_specs = [(v.dtype, v.offset, v.stride, v.size, v.layout, v.transpose, v.shape) for v in views]
-        return {"mlp": Float(views[0].buffer)}
+        return self.layers.from_numpy(arrays)
 
     def to_numpy(self, params: dict) -> dict[str, np.ndarray]:
-        if self.mode == "tensor":
-            return {k: np.array(v, dtype=np.float32) for k, v in params.items()}
-        out = {}
-        flat = nn.unpack(*self._views(params["mlp"]))
-        for k, (name, o, i) in enumerate(self.shapes):
-            out[f"{name}.weight"] = np.array(TensorXf(flat[2 * k]), dtype=np.float32).reshape(o, i)
-            out[f"{name}.bias"] = np.array(TensorXf(flat[2 * k + 1]), dtype=np.float32).reshape(o)
-        return out
-
-    def _views(self, buffer) -> list:
-        if self._view_specs is None:
-            self.init_params(0)           # learn the packed layout once
-        views = []
-        for dtype, offset, stride, size, layout, transpose, shape in self._view_specs:
-            v = nn.MatrixView()
-            v.dtype, v.offset, v.stride, v.size = dtype, offset, stride, size
-            v.layout, v.transpose, v.shape = layout, transpose, shape
-            v.buffer = buffer
-            views.append(v)
-        return views
-
-    # ------------------------------------------------------------------ evaluation
-    def _inputs(self, x, d=None):
-        enc_x = positional_encoding([xi * (1.0 / self.cfg.bound) for xi in x], self.cfg.pos_L)
-        enc_d = direction_encoding(list(d), self.cfg.dir_L) if (d is not None and self.cfg.view_dependent) else []
-        return enc_x, enc_d
+        return self.layers.to_numpy(params)
 
     def density(self, params: dict, x) -> Float:
         sigma, _ = self._evaluate(params, x, None, color=False)
@@ -181,46 +135,17 @@ class NeRFField:
         return self._evaluate(params, x, d, color=True)
 
     def _evaluate(self, params, x, d, color: bool):
-        enc_x, enc_d = self._inputs(x, d)
-        if self.mode == "coopvec":
-            raw_sigma, rgb = self._coopvec(params["mlp"], enc_x, enc_d, color)
-        else:
-            raw_sigma, rgb = self._tensor(params, enc_x, enc_d, color)
-        return density_activation(raw_sigma, self.cfg.density_activation), rgb
-
-    def _coopvec(self, buffer, enc_x, enc_d, color):
-        v = self._views(buffer)
-        h = nn.CoopVec(enc_x)
-        for i in range(self.cfg.depth):
-            if i == self.cfg.skip and i > 0:
-                h = nn.CoopVec(*h, *enc_x)
-            h = dr.maximum(nn.matvec(v[2 * i], h, v[2 * i + 1]), 0.0)
-        k = 2 * self.cfg.depth
-        raw_sigma = list(nn.matvec(v[k], h, v[k + 1]))[0]
+        cfg, L = self.cfg, self.layers
+        enc_x = positional_encoding([xi * (1.0 / cfg.bound) for xi in x], cfg.pos_L)
+        h = L.start(enc_x)
+        for i in range(cfg.depth):
+            if i == cfg.skip and i > 0:
+                h = L.concat(h, enc_x)
+            h = L.linear(params, f"trunk.{i}", h, relu=True)
+        sigma = density_activation(L.split(L.linear(params, "sigma", h, relu=False), 1)[0], cfg.density_activation)
         if not color:
-            return raw_sigma, None
-        c = nn.CoopVec(*h, *enc_d) if enc_d else h
-        c = dr.maximum(nn.matvec(v[k + 2], c, v[k + 3]), 0.0)
-        rgb = [sigmoid(ch) for ch in nn.matvec(v[k + 4], c, v[k + 5])]
-        return raw_sigma, rgb
-
-    def _tensor(self, params, enc_x, enc_d, color):
-        def layer(name, X, relu=True):
-            return dense(params[f"{name}.weight"], params[f"{name}.bias"], X, relu)
-
-        X = stack_rows(enc_x)
-        h = X
-        for i in range(self.cfg.depth):
-            if i == self.cfg.skip and i > 0:
-                h = TensorXf(dr.concat([h.array, X.array]), (h.shape[0] + X.shape[0], h.shape[1]))
-            h = layer(f"trunk.{i}", h)
-        raw_sigma = layer("sigma", h, relu=False).array
-        if not color:
-            return raw_sigma, None
-        c = h
-        if enc_d:
-            D = stack_rows(enc_d)
-            c = TensorXf(dr.concat([h.array, D.array]), (h.shape[0] + D.shape[0], h.shape[1]))
-        out = layer("color.1", layer("color.0", c), relu=False)
-        rgb = [sigmoid(row(out, j)) for j in range(3)]
-        return raw_sigma, rgb
+            return sigma, None
+        enc_d = direction_encoding(list(d), cfg.dir_L) if cfg.view_dependent else []
+        c = L.linear(params, "color.0", L.concat(h, enc_d), relu=True)
+        rgb = [sigmoid(v) for v in L.split(L.linear(params, "color.1", c, relu=False), 3)]
+        return sigma, rgb

@@ -11,9 +11,9 @@ from drjit.auto.ad import Float
 from .integral import RenderOutput
 
 
-def integrate_autodiff(sigma: Float, rgb: list, t: Float, t_next: Float, N: int, background) -> RenderOutput:
+def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, background) -> RenderOutput:
     """Ray-major samples (``[n_rays * N]`` each) -> per-ray colour, depth, opacity, weights."""
-    sd = sigma * (t_next - t)
+    sd = sigma * delta
     T = dr.exp(-dr.block_prefix_sum(sd, N, exclusive=True))     # T_i
     w = T * (1.0 - dr.exp(-sd))
     T_end = dr.exp(-dr.block_sum(sd, N))

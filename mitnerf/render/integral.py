@@ -99,21 +99,20 @@ class VolumeIntegral(dr.CustomOp):
         near_r, far_r = per_sample(near, ray), per_sample(far, ray)
         weights = dr.zeros(Float, n * N) if want_weights else None
 
-        def body(i, T, C, D, t):
-            t_next = sampler.t(ray, i + 1, near_r, far_r)
+        def body(i, T, C, D):
+            t, delta = sampler.interval(ray, i, near_r, far_r)
             x = [o + t * d for o, d in zip(origins, directions)]
             sigma, rgb = source(params, x, directions, ray * N + i)
-            alpha = 1.0 - dr.exp(-sigma * (t_next - t))
+            alpha = 1.0 - dr.exp(-sigma * delta)
             w = T * alpha
             if want_weights:
                 dr.scatter(weights, w, ray * N + i)
             C = [c + w * ci for c, ci in zip(C, rgb)]
-            return i + 1, T * (1.0 - alpha), C, D + w * t, t_next
+            return i + 1, T * (1.0 - alpha), C, D + w * t
 
         zero = dr.zeros(Float, n)
-        state = (UInt32(0), dr.full(Float, 1.0, n), [zero, Float(zero), Float(zero)], Float(zero),
-                 sampler.t(ray, UInt32(0), near_r, far_r))
-        _, T, C, D, _ = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral")
+        state = (UInt32(0), dr.full(Float, 1.0, n), [zero, Float(zero), Float(zero)], Float(zero))
+        _, T, C, D = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral")
         C = [c + T * b for c, b in zip(C, background)]
         self.out = (C, D, 1.0 - T, weights)
         return self.out
@@ -132,8 +131,8 @@ class VolumeIntegral(dr.CustomOp):
         if use_dw:
             R = R + dr.block_sum(dW * W, N)
 
-        def body(i, T, R, t, go, gd):
-            t_next = sampler.t(ray, i + 1, near_r, far_r)
+        def body(i, T, R, go, gd):
+            t, delta = sampler.interval(ray, i, near_r, far_r)
             with dr.resume_grad():
                 x = [o + t * d for o, d in zip(origins, directions)]
                 dirs = [Float(d) for d in directions] if input_grads else directions
@@ -141,27 +140,27 @@ class VolumeIntegral(dr.CustomOp):
                     dr.enable_grad(x, dirs)
                 sigma, rgb = source(P, x, dirs, ray * N + i)
                 s, c = dr.detach(sigma), [dr.detach(ci) for ci in rgb]
-                alpha = 1.0 - dr.exp(-s * (t_next - t))
+                alpha = 1.0 - dr.exp(-s * delta)
                 w = T * alpha
                 T_next = T * (1.0 - alpha)
                 g = _dot3(dC, c) + dD * t + dA
                 if use_dw:
                     g = g + dr.gather(Float, dW, ray * N + i)
                 R = R - w * g
-                d_sigma = (t_next - t) * (T_next * g - R)
+                d_sigma = delta * (T_next * g - R)
                 dr.backward_from(sigma * d_sigma + _dot3(rgb, [w * dc for dc in dC]),
                                  flags=dr.ADFlag.Default | dr.ADFlag.AllowNoGrad)
                 if input_grads:
                     gx = [dr.grad(xi) for xi in x]
                     go = [a + b for a, b in zip(go, gx)]
                     gd = [a + t * b + dr.grad(di) for a, b, di in zip(gd, gx, dirs)]
-            return i + 1, T_next, R, t_next, go, gd
+            return i + 1, T_next, R, go, gd
 
         zero = dr.zeros(Float, n)
         dim = len(origins)
-        state = (UInt32(0), dr.full(Float, 1.0, n), R, sampler.t(ray, UInt32(0), near_r, far_r),
-                 [Float(zero) for _ in range(dim)], [Float(zero) for _ in range(dim)])
-        _, _, _, _, go, gd = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral_adjoint")
+        state = (UInt32(0), dr.full(Float, 1.0, n), R, [Float(zero) for _ in range(dim)],
+                 [Float(zero) for _ in range(dim)])
+        _, _, _, go, gd = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral_adjoint")
         self.set_grad_in("params", {k: dr.grad(v) for k, v in P.items()})
         if input_grads:
             self.set_grad_in("origins", go)

@@ -70,6 +70,24 @@ class Model:
         """Samples per ray of the final pass."""
         return self.render_cfg.n_coarse + max(self.render_cfg.n_fine, 0)
 
+    def schedule(self, step: int, params: dict) -> dict | None:
+        """Parameters that a field's training schedule replaces before ``step`` (e.g. a
+        grid's coarse-to-fine resize), with prefixed keys; None when nothing changes."""
+        new = {}
+        for g, f in self.fields.items():
+            if hasattr(f, "schedule"):
+                changed = f.schedule(step, split_params(params, g))
+                if changed:
+                    new.update({f"{g}.{k}": v for k, v in changed.items()})
+        return new or None
+
+    def regularizer(self, params: dict, seed: UInt32):
+        """Sum of the fields' regularisers (e.g. total variation), or None."""
+        terms = [f.regularizer(split_params(params, g), seed) for g, f in self.fields.items()
+                 if hasattr(f, "regularizer")]
+        terms = [t for t in terms if t is not None]
+        return sum(terms[1:], terms[0]) if terms else None
+
     def final_field(self):
         """The field whose output is the model's answer (fine if present)."""
         return "fine" if "fine" in self.fields else "coarse"
@@ -81,7 +99,7 @@ class Model:
     def render(self, params: dict, origins: list, directions: list, near, far, seed: UInt32,
                training: bool, weights: bool = False, input_grads: bool = False) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
-        ``'samples': (t, t_next)`` of the final pass when ``weights`` is set."""
+        ``'samples': (t, delta)`` of the final pass when ``weights`` is set."""
         cfg = self.render_cfg
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
@@ -94,8 +112,8 @@ class Model:
             if weights:
                 result["samples"] = coarse.points(n, near, far)
             return result
-        t, t_next = coarse.points(n, near, far)
-        fine = importance_sample(t, t_next, out_c.weights, n, cfg.n_coarse, cfg.n_fine, seed, training)
+        t, delta = coarse.points(n, near, far)
+        fine = importance_sample(t, delta, out_c.weights, n, cfg.n_coarse, cfg.n_fine, seed, training)
         g = "fine" if "fine" in self.fields else "coarse"
         out_f = volume_render(self.fields[g], split_params(params, g), origins, directions, near, far, fine,
                               cfg.background, method=cfg.method, weights=weights, input_grads=input_grads)

@@ -1,10 +1,12 @@
 """Where along each ray the field is sampled (Dr.Jit; twin: ``mitnerf.reference.render.samplers``).
 
-A sampler gives the sorted sample distances ``t_0 < ... < t_{N-1}`` of every ray in
-``[near, far)``; ``t_N = far`` closes the last interval, so ``delta_i = t_{i+1} - t_i``
-(NeRF's quadrature). Samplers answer ``t(ray, i)`` for one ray step at a time (the
-fused integral calls it inside its loop and again in the replay, storing nothing)
-and ``points()`` for all samples at once.
+A sampler gives every ray ``N`` quadrature intervals: a sample distance ``t_i`` and the
+length ``delta_i`` of the interval it stands for, sorted along the ray in ``[near, far)``.
+Contiguous samplers use NeRF's quadrature, ``delta_i = t_{i+1} - t_i`` with ``t_N = far``;
+the occupancy sampler (:mod:`.occupancy`) leaves gaps where space is empty. Samplers
+answer ``interval(ray, i, near, far)`` for one ray step at a time (the fused integral
+calls it inside its loop and again in the replay, storing nothing) and ``points()`` for
+all samples at once.
 
 * :class:`Stratified`: ``t_i = near + (i + u_i) (far - near) / N``, ``u_i = 1/2`` or jittered
   by a counter-based hash of (seed, ray, i): reproducible, and identical in the twin.
@@ -52,32 +54,44 @@ class Stratified:
         t = near + (Float(i) + u) * ((far - near) * (1.0 / self.n))
         return dr.select(i >= self.n, far, t)
 
+    def interval(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> tuple[Float, Float]:
+        t = self.t(ray, i, near, far)
+        return t, self.t(ray, i + 1, near, far) - t
+
     def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
-        """``t`` and ``t_next`` of all samples, ray-major, each ``[n_rays * n]``."""
+        """``t`` and ``delta`` of all samples, ray-major, each ``[n_rays * n]``."""
         return flat_points(self, n_rays, near, far)
 
 
 @dataclass
 class Explicit:
-    """Given sorted distances per ray, ``t`` of shape ``[n_rays * n]`` (ray-major)."""
+    """Given sorted distances per ray, ``t_flat [n_rays * n]`` (ray-major), and either given
+    interval lengths ``delta_flat`` or contiguous ones (``t_{i+1} - t_i``, ``t_n = far``)."""
 
     t_flat: Float
     n: int
+    delta_flat: Float | None = None
 
     def t(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> Float:
         inside = i < self.n
         t = dr.gather(Float, self.t_flat, ray * self.n + dr.minimum(i, self.n - 1), inside)
         return dr.select(inside, t, far)
 
+    def interval(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> tuple[Float, Float]:
+        t = self.t(ray, i, near, far)
+        if self.delta_flat is not None:
+            return t, dr.gather(Float, self.delta_flat, ray * self.n + i)
+        return t, self.t(ray, i + 1, near, far) - t
+
     def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
         return flat_points(self, n_rays, near, far)
 
 
 def flat_points(sampler, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
+    """``t`` and ``delta`` of every sample of ``n_rays`` rays (ray-major)."""
     idx = dr.arange(UInt32, n_rays * sampler.n)
     ray, i = idx // sampler.n, idx % sampler.n
-    nr, fr = per_sample(near, ray), per_sample(far, ray)
-    return sampler.t(ray, i, nr, fr), sampler.t(ray, i + 1, nr, fr)
+    return sampler.interval(ray, i, per_sample(near, ray), per_sample(far, ray))
 
 
 def per_sample(value: Float, ray: UInt32) -> Float:
@@ -99,11 +113,12 @@ def count_below(sorted_flat: Float, block: int, base: UInt32, query: Float, stri
     return lo
 
 
-def importance_sample(t: Float, t_next: Float, weights: Float, n_rays: int, n_coarse: int, n_fine: int,
+def importance_sample(t: Float, delta: Float, weights: Float, n_rays: int, n_coarse: int, n_fine: int,
                       seed: UInt32, jitter: bool) -> Explicit:
     """NeRF's hierarchical sampling: ``n_fine`` draws from the piecewise-constant density
-    of the coarse ``weights`` on the coarse intervals ``[t, t_next)``, merged with the coarse
-    samples (sorted, ``n_coarse + n_fine`` per ray). Inputs ``[n_rays * n_coarse]``, detached."""
+    of the coarse ``weights`` on the coarse intervals ``[t, t + delta)``, merged with the
+    coarse samples (sorted, ``n_coarse + n_fine`` per ray; the fine pass integrates them
+    contiguously). Inputs ``[n_rays * n_coarse]``, detached."""
     Nc, Nf = n_coarse, n_fine
     w = dr.detach(weights) + 1e-5                     # never a zero-probability ray
     cdf = dr.block_prefix_sum(w, Nc, exclusive=False)
@@ -117,8 +132,7 @@ def importance_sample(t: Float, t_next: Float, weights: Float, n_rays: int, n_co
     cdf_hi = dr.gather(Float, cdf, base + k)
     wk = dr.gather(Float, w, base + k)
     frac = dr.clip((target - (cdf_hi - wk)) / wk, 0.0, 1.0)
-    lo, hi = dr.gather(Float, t, base + k), dr.gather(Float, t_next, base + k)
-    t_new = lo + frac * (hi - lo)
+    t_new = dr.gather(Float, t, base + k) + frac * dr.gather(Float, delta, base + k)
     # merge the two sorted lists of each ray: an element's rank is its own index plus the
     # number of elements of the other list before it (ties: the coarse sample first)
     N = Nc + Nf

@@ -43,11 +43,11 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
         out = dr.custom(VolumeIntegral, params, list(origins), list(directions), near, far, FieldSource(field),
                         sampler, tuple(background), weights, input_grads)
         return RenderOutput(*out)
-    t, t_next = sampler.points(n, near, far)
+    t, delta = sampler.points(n, near, far)
     x, d = sample_points(origins, directions, t, sampler.n)
     sigma, rgb = field.query(params, x, d)
     if method == "autodiff":
-        out = integrate_autodiff(sigma, rgb, t, t_next, sampler.n, background)
+        out = integrate_autodiff(sigma, rgb, t, delta, sampler.n, background)
         return out if weights else RenderOutput(out.rgb, out.depth, out.opacity)
     samples = {"sigma": sigma, "rgb": dr.ravel(Array3f(rgb))}
     out = dr.custom(VolumeIntegral, samples, list(origins), list(directions), near, far, GatheredSource(),

@@ -54,7 +54,10 @@ class DrJitBackend:
         self.opt = Adam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2,
                         epsilon=train_cfg.eps, params=self.model.init_params(train_cfg.seed))
         self.data = None
-        self._frozen = dr.freeze(self._make_step())
+        # auto_opaque=False: every input is opaque from the first recording on, so a changing
+        # value never bakes into a kernel (two recordings: before and after Adam has state).
+        self._frozen = (dr.freeze(self._make_step(), auto_opaque=False) if train_cfg.freeze
+                        else self._make_step())
 
     # ------------------------------------------------------------------ training
     def set_data(self, rays: RaySet) -> None:
@@ -82,9 +85,12 @@ class DrJitBackend:
             loss = mse(out.rgb, target)
             if outs["fine"] is not None and cfg.coarse_weight > 0:
                 loss = loss + cfg.coarse_weight * mse(outs["coarse"].rgb, target)
+            reg = model.regularizer(params, seed)
+            if reg is not None:
+                loss = loss + reg
             if use_depth:
-                t, t_next = outs["samples"]
-                loss = loss + cfg.depth_weight * depth_kl(out.weights, t, t_next, dr.gather(Float, data.depth, idx),
+                t, delta = outs["samples"]
+                loss = loss + cfg.depth_weight * depth_kl(out.weights, t, delta, dr.gather(Float, data.depth, idx),
                                                           dr.gather(Float, data.hit, idx), model.n_final(), cfg.depth_sigma)
             dr.backward(loss)
             opt.step()
@@ -92,8 +98,12 @@ class DrJitBackend:
 
         return step
 
-    def step(self, seed: int, lr: float) -> Float:
-        """One optimisation step; returns the loss (not yet read back)."""
+    def step(self, seed: int, lr: float, index: int = 0) -> Float:
+        """Optimisation step number ``index``; returns the loss (not yet read back)."""
+        new = self.model.schedule(index, self.params)
+        if new:                     # a resized parameter also resets its Adam state
+            for k, v in new.items():
+                self.opt[k] = v
         return self._frozen(self.opt, self.data, dr.opaque(UInt32, self.n_pixels),
                             dr.opaque(UInt32, seed), dr.opaque(Float, lr))
 

@@ -45,9 +45,20 @@ class TorchBackend:
                      for k in ("origins", "directions", "target", "depth", "hit")}
         self.n_pixels = len(rays)
 
-    def step(self, seed: int, lr: float):
+    def _rebuild_optimizer(self) -> None:
+        """After parameters were replaced: a new Adam that keeps the state of the others."""
+        old = self.opt
+        cfg = self.cfg
+        self.opt = self.torch.optim.Adam(self.model.parameters(), lr=cfg.lr, betas=(cfg.beta1, cfg.beta2), eps=cfg.eps)
+        for p in self.model.parameters():
+            if p in old.state:
+                self.opt.state[p] = old.state[p]
+
+    def step(self, seed: int, lr: float, index: int = 0):
         from ..reference.train.losses import depth_kl, mse
 
+        if self.model.schedule(index):
+            self._rebuild_optimizer()
         cfg = self.cfg
         for group in self.opt.param_groups:
             group["lr"] = lr
@@ -60,9 +71,12 @@ class TorchBackend:
         loss = mse(out.rgb, b["target"])
         if outs["fine"] is not None and cfg.coarse_weight > 0:
             loss = loss + cfg.coarse_weight * mse(outs["coarse"].rgb, b["target"])
+        reg = self.model.regularizer(seed)
+        if reg is not None:
+            loss = loss + reg
         if use_depth:
-            t, t_next = outs["samples"]
-            loss = loss + cfg.depth_weight * depth_kl(out.weights, t, t_next, b["depth"], b["hit"], cfg.depth_sigma)
+            t, delta = outs["samples"]
+            loss = loss + cfg.depth_weight * depth_kl(out.weights, t, delta, b["depth"], b["hit"], cfg.depth_sigma)
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
         self.opt.step()

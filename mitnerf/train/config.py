@@ -66,6 +66,8 @@ class TrainConfig:
     """Seed of the initial weights, the ray batches and the sample jitter."""
     threads: int = 2
     """CPU threads (Dr.Jit and torch)."""
+    freeze: bool = True
+    """Record the Dr.Jit step once and replay it (``dr.freeze``); off only for debugging."""
     progress: bool = True
     """Show a progress bar."""
 

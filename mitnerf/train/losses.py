@@ -32,12 +32,11 @@ def mse(rgb: list, target: list) -> Float:
     return sum(dr.mean(dr.square(c - t)) for c, t in zip(rgb, target)) * (1.0 / 3.0)
 
 
-def depth_kl(weights: Float, t: Float, t_next: Float, depth: Float, hit: Float, N: int, sigma: float) -> Float:
-    """Mean over hit rays of the KL estimate above. ``weights, t, t_next``: ``[n_rays * N]``;
+def depth_kl(weights: Float, t: Float, delta: Float, depth: Float, hit: Float, N: int, sigma: float) -> Float:
+    """Mean over hit rays of the KL estimate above. ``weights, t, delta``: ``[n_rays * N]``;
     ``depth`` (ground truth) and ``hit`` (1 for rays with a depth, else 0): ``[n_rays]``."""
     ray = dr.arange(UInt32, dr.width(t)) // N
     D = dr.gather(Float, depth, ray)
-    delta = t_next - t
     z = (t - D) * (1.0 / sigma)
     log_q = -0.5 * z * z - math.log(sigma * math.sqrt(2.0 * math.pi))
     q = dr.exp(log_q)

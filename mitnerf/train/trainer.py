@@ -146,15 +146,16 @@ def _train(run: Run, val, dataset: Dataset) -> None:
         while step < cfg.iters and (budget is None or train_time < budget):
             progress = step / cfg.iters if budget is None else max(step / cfg.iters, train_time / budget)
             lr = cfg.lr_at(progress, step)
-            loss = be.step(step_seed(cfg.seed, step), lr)
+            loss = be.step(step_seed(cfg.seed, step), lr, step)
             step += 1
             pending.append((step, loss))
-            if step % 10 == 0 or step == cfg.iters:
+            slow = step > 1 and train_time / max(step - len(pending), 1) > 0.05
+            if step % 10 == 0 or step == cfg.iters or (budget is not None and slow):
                 drain(step)                        # syncs, so the clock below is honest
                 now = time.perf_counter()
                 train_time += now - t_last
                 t_last = now
-                bar.update(10 if step % 10 == 0 else step % 10)
+                bar.update(step - bar.n)
                 bar.set_postfix(loss=f"{h['loss'][-1]:.2e}", rays_s=f"{cfg.batch_rays * step / max(train_time, 1e-9):.3g}")
             if val is not None and cfg.val_every and step % cfg.val_every == 0:
                 _validate(run, val, bg, step, train_time)

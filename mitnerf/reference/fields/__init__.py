@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from ...fields import field_config
+from .grid import GridField
+from .hashgrid import HashGridField
 from .mlp import NeRFField
 
-TORCH_FIELDS = {"vanilla": NeRFField}
+TORCH_FIELDS = {"vanilla": NeRFField, "grid": GridField, "hashgrid": HashGridField}
 
 
 def make_field(kind: str, **kwargs):

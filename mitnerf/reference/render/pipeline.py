@@ -28,6 +28,15 @@ class Model(nn.Module):
         for g, f in self.fields.items():
             f.load_numpy(split_params(arrays, g))
 
+    def schedule(self, step: int) -> bool:
+        """Apply the fields' training schedules (in place); True if parameters were replaced."""
+        return any([f.schedule(step) for f in self.fields.values() if hasattr(f, "schedule")])
+
+    def regularizer(self, seed: int):
+        terms = [f.regularizer(seed) for f in self.fields.values() if hasattr(f, "regularizer")]
+        terms = [t for t in terms if t is not None]
+        return sum(terms[1:], terms[0]) if terms else None
+
     def final_field(self) -> str:
         return "fine" if "fine" in self.fields else "coarse"
 
@@ -42,8 +51,8 @@ class Model(nn.Module):
                               weights=True)
         if cfg.n_fine <= 0:
             return {"coarse": out_c if weights else RenderOutput(out_c.rgb, out_c.depth, out_c.opacity), "fine": None}
-        t, t_next = coarse.points(n, near, far)
-        fine = importance_sample(t, t_next, out_c.weights, cfg.n_fine, int(np.uint32(seed)), training)
+        t, delta = coarse.points(n, near, far)
+        fine = importance_sample(t, delta, out_c.weights, cfg.n_fine, int(np.uint32(seed)), training)
         g = "fine" if "fine" in self.fields else "coarse"
         out_f = volume_render(self.fields[g], origins, directions, near, far, fine, cfg.background, weights=weights)
         return {"coarse": out_c, "fine": out_f}

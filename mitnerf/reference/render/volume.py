@@ -16,9 +16,9 @@ class RenderOutput:
     weights: torch.Tensor | None = None   # [n_rays, N]
 
 
-def integrate(sigma, rgb, t, t_next, background) -> RenderOutput:
-    """``sigma, t, t_next [n_rays, N]``, ``rgb [n_rays, N, 3]``."""
-    sd = sigma * (t_next - t)
+def integrate(sigma, rgb, t, delta, background) -> RenderOutput:
+    """``sigma, t, delta [n_rays, N]``, ``rgb [n_rays, N, 3]``."""
+    sd = sigma * delta
     cum = torch.cumsum(sd, dim=1)
     T = torch.exp(-torch.cat([torch.zeros_like(cum[:, :1]), cum[:, :-1]], dim=1))
     w = T * (1.0 - torch.exp(-sd))
@@ -32,10 +32,10 @@ def volume_render(field, origins, directions, near, far, sampler, background=(0.
                   weights: bool = False) -> RenderOutput:
     """``origins, directions [n_rays, D]`` -> :class:`RenderOutput`."""
     n, D = origins.shape
-    t, t_next = sampler.points(n, near, far)
+    t, delta = sampler.points(n, near, far)
     N = t.shape[1]
     x = origins[:, None, :] + t[..., None] * directions[:, None, :]
     d = directions[:, None, :].expand(n, N, D)
     sigma, rgb = field.query(x.reshape(-1, D), d.reshape(-1, D))
-    out = integrate(sigma.reshape(n, N), rgb.reshape(n, N, 3), t, t_next, background)
+    out = integrate(sigma.reshape(n, N), rgb.reshape(n, N, 3), t, delta, background)
     return out if weights else RenderOutput(out.rgb, out.depth, out.opacity)

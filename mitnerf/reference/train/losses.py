@@ -13,9 +13,8 @@ def mse(rgb: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     return torch.mean((rgb - target) ** 2)
 
 
-def depth_kl(weights, t, t_next, depth, hit, sigma: float) -> torch.Tensor:
-    """``weights, t, t_next [n_rays, N]``, ``depth, hit [n_rays]``."""
-    delta = t_next - t
+def depth_kl(weights, t, delta, depth, hit, sigma: float) -> torch.Tensor:
+    """``weights, t, delta [n_rays, N]``, ``depth, hit [n_rays]``."""
     z = (t - depth[:, None]) / sigma
     log_q = -0.5 * z * z - math.log(sigma * math.sqrt(2.0 * math.pi))
     per_ray = (torch.exp(log_q) * delta * (log_q - torch.log(weights / delta + EPS))).sum(1) * hit

@@ -1,0 +1,128 @@
+"""``mitnerf video``: a turn-table video of a trained 3D field, its mesh, and how close it is.
+
+    mitnerf video --checkpoint out/vase-run --out out/vase-video --frames 120 --resolution 100
+
+writes into ``--out``: ``color.gif``/``color.mp4`` and ``depth.gif``/``depth.mp4`` (a 360
+degree orbit at ``--elevation`` degrees and ``--radius``, looking at the origin), and,
+unless ``--no-mesh``, ``mesh.ply`` (the density isosurface at ``--level``, see
+:mod:`mitnerf.geometry.mesh` for how to choose it), ``mesh.png`` (the learned mesh beside
+the ground truth) and, when the checkpoint's dataset names its ground-truth mesh,
+``chamfer.json`` with the Chamfer distance (printed too). The last line reads
+``video <n> frames <W>x<H> in <t> s (<fps> frames/s)``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from ..errors import MitnerfError
+
+
+def parse_level(text: str) -> float | str:
+    if text == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        raise MitnerfError(f"--level must be a density (a number such as 10) or 'auto', got {text!r}") from None
+    if not value > 0:
+        raise MitnerfError(f"--level must be a positive density, got {text}; try 10 or 'auto'")
+    return value
+
+
+def register(sub) -> None:
+    p = sub.add_parser("video", help="turn-table video (colour, depth) and mesh of a trained 3D field",
+                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--checkpoint", required=True, help="checkpoint folder (the --out of `mitnerf fit`)")
+    p.add_argument("--out", required=True, help="folder for the videos and the mesh")
+    p.add_argument("--frames", type=int, default=120, help="frames in one 360 degree turn")
+    p.add_argument("--resolution", type=int, default=100, help="frame width and height in pixels")
+    p.add_argument("--elevation", type=float, default=25.0, help="camera elevation in degrees")
+    p.add_argument("--radius", type=float, default=3.5, help="camera distance from the origin")
+    p.add_argument("--fov", type=float, default=40.0, help="horizontal field of view in degrees")
+    p.add_argument("--fps", type=float, default=30.0, help="playback frames per second")
+    p.add_argument("--mesh", action=argparse.BooleanOptionalAction, default=True,
+                   help="also extract the mesh, compare it with the ground truth")
+    p.add_argument("--level", default="10", help="density of the mesh surface, or 'auto'")
+    p.add_argument("--mesh-resolution", type=int, default=128, help="marching-cubes grid nodes per side")
+    p.add_argument("--chamfer-points", type=int, default=100_000, help="surface samples per mesh")
+    p.add_argument("--backend", choices=["drjit", "torch"], default=None, help="default: the checkpoint's")
+    p.set_defaults(run=run)
+
+
+def ground_truth(meta: dict) -> tuple[Path | None, Path | None]:
+    """The ground-truth mesh and texture a dataset's metadata names; scene assets that
+    were deleted from the cache are rebuilt."""
+    mesh = meta.get("mesh")
+    texture = meta.get("texture")
+    if mesh and not Path(mesh).exists() and meta.get("scene"):
+        from ..scenes.objects3d import OBJECTS_3D
+        from ..scenes.registry import get_scene
+
+        if meta["scene"] in OBJECTS_3D:
+            info = get_scene(meta["scene"])
+            mesh, texture = info.mesh, info.variables.get("texture")
+    mesh = Path(mesh) if mesh and Path(mesh).exists() else None
+    texture = Path(texture) if texture and Path(texture).exists() else None
+    return mesh, texture
+
+
+def run(args) -> int:
+    from ..train.checkpoint import load_checkpoint
+    from ..viz.video import OrbitConfig, orbit_video
+
+    level = parse_level(args.level)
+    cfg = OrbitConfig(n_frames=args.frames, resolution=args.resolution, elevation=args.elevation,
+                      radius=args.radius, fov=args.fov, fps=args.fps)
+    cfg.validate()
+    if args.mesh and args.mesh_resolution < 2:
+        raise MitnerfError(f"--mesh-resolution must be at least 2, got {args.mesh_resolution}; use 128")
+    ckpt = Path(args.checkpoint)
+    if not ckpt.is_dir():
+        raise MitnerfError(f"checkpoint folder {ckpt} does not exist; pass the --out folder of `mitnerf fit`")
+    model = load_checkpoint(ckpt, args.backend)
+    if model.backend.model.dim != 3:
+        raise MitnerfError(f"{ckpt} holds a 2D field (its views are 1D images): `mitnerf video` and mesh "
+                           "extraction need a 3D checkpoint; train one on a 3D dataset "
+                           "(`mitnerf dataset --scene vase --out DIR`, then `mitnerf fit --data DIR --out CKPT`)")
+    out = Path(args.out)
+    video = orbit_video(model.backend, cfg, out, tuple(model.model_cfg.render.background))
+    for path in video.paths.values():
+        print(f"wrote {path}")
+    if args.mesh:
+        write_mesh_outputs(model, out, level, args.mesh_resolution, args.chamfer_points, cfg)
+    print(video.summary())
+    return 0
+
+
+def write_mesh_outputs(model, out: Path, level, resolution: int, n_points: int, cfg) -> dict:
+    """``mesh.ply``, ``mesh.png`` and (with a ground truth) ``chamfer.json``; prints what it found."""
+    from ..geometry import chamfer_distance, extract_mesh
+    from ..viz.meshes import plot_mesh_comparison
+
+    try:
+        mesh = extract_mesh(model.backend.density, model.bound, resolution, level)
+    except MitnerfError as exc:
+        raise MitnerfError(f"the videos are in {out}, but the mesh failed: {exc}; pass that level with "
+                           "--level (or --level auto), or skip the mesh with --no-mesh") from None
+    ply = mesh.save(out / "mesh.ply")
+    print(f"wrote {ply}: {len(mesh.vertices)} vertices, {len(mesh.faces)} faces at density level "
+          f"{mesh.level:.3g} ({resolution}^3 grid in {mesh.info['seconds']:.3g} s)")
+    truth, texture = ground_truth(model.dataset_meta)
+    result = {"level": mesh.level, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}
+    note = ""
+    if truth is None:
+        print("no ground-truth mesh in the checkpoint's dataset metadata: no Chamfer distance")
+    else:
+        c = chamfer_distance(mesh, truth, n_points=n_points, seed=0)
+        result.update(truth=str(truth), chamfer=c.chamfer, learned_to_truth=c.a_to_b, truth_to_learned=c.b_to_a,
+                      n_points=c.n_points, sampling_floor=c.floor)
+        (out / "chamfer.json").write_text(json.dumps(result, indent=1))
+        note = str(c)
+        print(f"{note} against {truth.name}")
+    png = plot_mesh_comparison(mesh, truth, out / "mesh.png", texture, note=note, elevation=cfg.elevation,
+                               distance=cfg.radius, fov=cfg.fov)
+    print(f"wrote {png}")
+    return result

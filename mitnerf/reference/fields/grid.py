@@ -1,0 +1,125 @@
+"""Twin of :mod:`mitnerf.fields.grid`: the same vertices, corner order, weights and
+activations, in PyTorch (autograd supplies the gradients)."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from torch import nn
+
+from ...fields.grid import GridConfig
+from .mlp import density_activation
+
+
+def corner_weights(x: torch.Tensor, bound: float, res: int):
+    """``x [n, D]`` -> list of (flat index [n], weight [n]) and inside [n]."""
+    D = x.shape[-1]
+    u = torch.clamp((x / bound + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001)
+    i0 = torch.floor(u)
+    frac = u - i0
+    i0 = i0.long()
+    inside = (x.abs() <= bound).all(dim=-1)
+    corners = []
+    for c in range(1 << D):
+        index = torch.zeros(x.shape[0], dtype=torch.long)
+        weight = torch.ones(x.shape[0], dtype=x.dtype)
+        stride = 1
+        for a in range(D):
+            bit = (c >> a) & 1
+            index = index + (i0[:, a] + bit) * stride
+            weight = weight * (frac[:, a] if bit else 1.0 - frac[:, a])
+            stride *= res
+        corners.append((index, weight))
+    return corners, inside
+
+
+def interpolate(grid: torch.Tensor, corners) -> torch.Tensor:
+    """``grid [V, C]`` -> ``[n, C]``."""
+    return sum(grid[index] * weight[:, None] for index, weight in corners)
+
+
+class GridField(nn.Module):
+    traceable = False
+
+    def __init__(self, cfg: GridConfig):
+        super().__init__()
+        self.cfg = cfg
+        self.dim = cfg.dim
+        n = cfg.initial_resolution ** cfg.dim
+        self.density_grid = nn.Parameter(torch.zeros(n, 1))
+        self.color_grid = nn.Parameter(torch.zeros(n, 3 * cfg.color_coeffs))
+
+    @property
+    def res(self) -> int:
+        return int(round(self.density_grid.shape[0] ** (1.0 / self.dim)))
+
+    def load_numpy(self, arrays) -> None:
+        d = torch.as_tensor(np.asarray(arrays["density"], np.float32).reshape(-1, 1))
+        c = torch.as_tensor(np.asarray(arrays["color"], np.float32).reshape(d.shape[0], -1))
+        self.density_grid = nn.Parameter(d)
+        self.color_grid = nn.Parameter(c)
+
+    def to_numpy(self) -> dict:
+        shape = (self.res,) * self.dim
+        return {"density": self.density_grid.detach().numpy().reshape(shape),
+                "color": self.color_grid.detach().numpy().reshape(shape + (-1,))}
+
+    def schedule(self, step: int) -> bool:
+        res = self.cfg.resolution_at(step)
+        if res == self.res:
+            return False
+        axis = [np.linspace(-self.cfg.bound, self.cfg.bound, res, dtype=np.float32)] * self.dim
+        pts = np.stack([v.ravel() for v in np.meshgrid(*axis, indexing="ij")[::-1]], 1)
+        corners, _ = corner_weights(torch.from_numpy(pts), self.cfg.bound, self.res)
+        with torch.no_grad():
+            self.density_grid = nn.Parameter(interpolate(self.density_grid, corners))
+            self.color_grid = nn.Parameter(interpolate(self.color_grid, corners))
+        return True
+
+    def _sigma(self, corners, inside):
+        raw = interpolate(self.density_grid, corners)[:, 0] * self.cfg.density_scale
+        return torch.where(inside, density_activation(raw, self.cfg.density_activation), torch.zeros_like(raw))
+
+    def density(self, x):
+        corners, inside = corner_weights(x, self.cfg.bound, self.res)
+        return self._sigma(corners, inside)
+
+    def query(self, x, d):
+        corners, inside = corner_weights(x, self.cfg.bound, self.res)
+        sigma = self._sigma(corners, inside)
+        K = self.cfg.color_coeffs
+        coef = interpolate(self.color_grid, corners)
+        if K == 1:
+            raw = coef
+        else:
+            basis = torch.cat([torch.ones_like(d[:, :1]), d], dim=1)        # [n, K]
+            raw = (coef.reshape(-1, 3, K) * basis[:, None, :]).sum(-1)
+        return sigma, torch.sigmoid(raw)
+
+    def regularizer(self, seed: int):
+        cfg = self.cfg
+        if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
+            return None
+        from ..render.samplers import hash_u32
+
+        res, n = self.res, self.res ** self.dim
+        if cfg.tv_samples and cfg.tv_samples < n:
+            with np.errstate(over="ignore"):
+                v = hash_u32(hash_u32(np.uint32(seed) ^ np.uint32(0x2545F491)) ^ np.arange(cfg.tv_samples, dtype=np.uint32))
+            v = torch.from_numpy((v % np.uint32(n)).astype(np.int64))
+        else:
+            v = torch.arange(n)
+        total = 0.0
+        for grid, weight, scale in ((self.density_grid, cfg.tv_weight, cfg.density_scale ** 2),
+                                    (self.color_grid, cfg.tv_color_weight, 1.0)):
+            if weight <= 0:
+                continue
+            tv, stride = 0.0, 1
+            for a in range(self.dim):
+                ok = ((v // stride) % res) < res - 1
+                nb = torch.where(ok, v + stride, v)
+                diff = grid[nb] - grid[v]
+                tv = tv + torch.where(ok[:, None], diff * diff, torch.zeros_like(diff)).mean(0).sum()
+                stride *= res
+            total = total + weight * scale * tv
+        return total

@@ -1,0 +1,167 @@
+"""Orbit videos: cameras that look at the centre, frames that render and read back, the CLI."""
+
+import argparse
+import re
+
+import numpy as np
+import pytest
+
+from mitnerf.errors import MitnerfError
+from mitnerf.viz.video import (OrbitConfig, depth_frames, orbit_cameras, orbit_video, read_video, render_orbit,
+                               write_video)
+
+
+class SphereBackend:
+    """An analytic "model": a sphere of radius 0.5 at ``center``, opacity 0.8 where a ray hits it,
+    colour = the hit normal mapped to [0, 1]; ``depth`` is ``opacity * t`` like a backend's sum w t."""
+
+    def __init__(self, center=(0.0, 0.0, 0.0)):
+        self.center = np.asarray(center)
+
+    def render(self, o, d):
+        oc = o - self.center
+        b = np.einsum("pi,pi->p", oc, d)
+        disc = b * b - (np.einsum("pi,pi->p", oc, oc) - 0.25)
+        hit = disc > 0
+        t = np.where(hit, -b - np.sqrt(np.maximum(disc, 0)), 0.0)
+        n = (oc + t[:, None] * d) / 0.5
+        a = np.where(hit, 0.8, 0.0)
+        rgb = np.where(hit[:, None], 0.5 + 0.5 * n, 1.0)
+        return {"rgb": rgb.astype(np.float32), "depth": (a * t).astype(np.float32), "opacity": a.astype(np.float32)}
+
+
+def test_orbit_cameras_look_at_the_centre():
+    c = np.array([0.2, -0.1, 0.3])
+    cfg = OrbitConfig(n_frames=7, resolution=9, elevation=25.0, radius=3.5, fov=40.0, center=tuple(c))
+    cams = orbit_cameras(cfg)
+    assert len(cams) == 7 and (cams.height, cams.width) == (9, 9)
+    assert cams.fov == pytest.approx(40.0)
+    o, d = cams.rays()
+    o, d = o[:, 4, 4], d[:, 4, 4]                        # centre pixel of an odd-sized image: the optical axis
+    to_c = c - o
+    miss = np.linalg.norm(to_c - np.einsum("ni,ni->n", to_c, d)[:, None] * d, axis=1)   # distance ray -> centre
+    assert miss.max() < 1e-6
+    assert np.all(np.einsum("ni,ni->n", to_c, d) > 0)    # in front of the camera
+    rel = cams.origins - c
+    np.testing.assert_allclose(np.linalg.norm(rel, axis=1), 3.5)
+    np.testing.assert_allclose(rel[:, 2], 3.5 * np.sin(np.radians(25.0)))       # height 1.479
+    az = np.degrees(np.arctan2(rel[:, 1], rel[:, 0])) % 360
+    np.testing.assert_allclose(az, np.arange(7) * 360 / 7, atol=1e-9)            # one even turn from +x
+    even = orbit_cameras(OrbitConfig(n_frames=3, resolution=10, center=tuple(c)))
+    axis = -even.poses[:, :3, 2]                          # OpenGL: the camera looks down -z
+    to_c = c - even.origins
+    np.testing.assert_allclose(axis, to_c / np.linalg.norm(to_c, axis=1, keepdims=True), atol=1e-12)
+
+
+def test_bad_orbits_are_refused():
+    for bad, match in ((dict(n_frames=0), "--frames"), (dict(elevation=90.0), "--elevation"),
+                       (dict(fov=0.0), "--fov"), (dict(radius=-1.0), "--radius")):
+        with pytest.raises(MitnerfError, match=match):
+            orbit_cameras(OrbitConfig(**bad))
+
+
+def test_render_orbit_depth_is_depth_over_opacity():
+    c = (0.1, 0.0, -0.2)
+    cams = orbit_cameras(OrbitConfig(n_frames=5, resolution=11, radius=3.5, center=c))
+    fr = render_orbit(SphereBackend(c), cams, batch_rays=300, progress=False)   # 2 frames per batch
+    assert fr.rgb.shape == (5, 11, 11, 3) and fr.depth.shape == (5, 11, 11)
+    # the centre ray of every frame hits the sphere at distance 3.5 - 0.5 = 3.0 (0.8 t / 0.8)
+    np.testing.assert_allclose(fr.depth[:, 5, 5], 3.0, rtol=1e-6)
+    assert np.isinf(fr.depth[:, 0, 0]).all()                                     # corners miss
+    assert fr.fps > 0
+    col = depth_frames(fr.depth, background=(1.0, 1.0, 1.0))
+    np.testing.assert_array_equal(col[:, 0, 0], 1.0)                             # background where empty
+    # the centre is the nearest point (depth 3.0 <= the 1st percentile): the near end of the scale,
+    # viridis(1.0) (near = bright)
+    from matplotlib import colormaps
+
+    np.testing.assert_allclose(col[:, 5, 5], np.broadcast_to(colormaps["viridis"](1.0)[:3], (5, 3)), atol=1e-6)
+
+
+def test_videos_read_back_with_the_right_frames(tmp_path):
+    rng = np.random.default_rng(0)
+    frames = rng.uniform(0, 1, (4, 15, 17, 3)).astype(np.float32)
+    frames[:, :, :, :] = np.linspace(0, 1, 4)[:, None, None, None]               # frame k is grey k/3
+    gif = read_video(write_video(tmp_path / "a.gif", frames, fps=10))
+    assert gif.shape == (4, 15, 17, 3)
+    np.testing.assert_allclose(gif[:, 0, 0, 0], [0, 85, 170, 255], atol=2)
+    mp4 = read_video(write_video(tmp_path / "a.mp4", frames, fps=10))
+    assert mp4.shape == (4, 16, 18, 3)                      # H.264 yuv420p: odd sizes padded to even
+    np.testing.assert_allclose(mp4[:, 8, 8, 0], [0, 85, 170, 255], atol=6)      # lossy, but close
+    with pytest.raises(MitnerfError, match="use .gif or .mp4"):
+        write_video(tmp_path / "a.avi", frames)
+
+
+@pytest.fixture(scope="module")
+def tiny_checkpoint(vase_small, tmp_path_factory):
+    """A 3D vanilla model (width 16, depth 2, 16 samples) after 20 steps on the small vase."""
+    from mitnerf.render.pipeline import RenderConfig
+    from mitnerf.train.checkpoint import save_checkpoint
+    from mitnerf.train.config import ModelConfig, TrainConfig
+    from mitnerf.train.trainer import fit
+
+    mc = ModelConfig("vanilla", dict(width=16, depth=2), RenderConfig(n_coarse=16, background=(1.0, 1.0, 1.0)))
+    run = fit(vase_small, mc, TrainConfig(iters=20, val_every=0, progress=False, batch_rays=256), "drjit")
+    return save_checkpoint(run, tmp_path_factory.mktemp("ckpt") / "vase")
+
+
+def test_a_trained_model_makes_a_video(tiny_checkpoint, tmp_path):
+    from mitnerf.data.color import to_uint8
+    from mitnerf.train.checkpoint import load_checkpoint
+
+    run = load_checkpoint(tiny_checkpoint)
+    v = orbit_video(run.backend, OrbitConfig(n_frames=6, resolution=16), tmp_path, progress=False)
+    assert set(v.paths) == {"color_gif", "color_mp4", "depth_gif", "depth_mp4"}
+    for key, path in v.paths.items():
+        assert read_video(path).shape == (6, 16, 16, 3), key
+    gif = read_video(v.paths["color_gif"]).astype(float)
+    assert np.abs(gif - to_uint8(v.frames.rgb)).mean() < 4        # the frames, in order (GIF palette error)
+    assert re.fullmatch(r"video 6 frames 16x16 in \S+ s \(\S+ frames/s\)", v.summary())
+
+
+def video_cli(argv):
+    """The ``video`` sub-command on its own parser (errors propagate instead of exit status 2)."""
+    from mitnerf.cli import video_cmd
+
+    parser = argparse.ArgumentParser()
+    video_cmd.register(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(["video", *argv])
+    return args.run(args)
+
+
+def test_video_cli_writes_videos_mesh_and_chamfer(tiny_checkpoint, tmp_path, capsys):
+    import json
+
+    out = tmp_path / "video"
+    assert video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(out), "--frames", "4", "--resolution", "12",
+                      "--level", "auto", "--mesh-resolution", "20", "--chamfer-points", "2000"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert re.fullmatch(r"video 4 frames 12x12 in \S+ s \(\S+ frames/s\)", lines[-1])
+    assert any(line.startswith("chamfer ") and "vase.ply" in line for line in lines)
+    for name in ("color.gif", "color.mp4", "depth.gif", "depth.mp4", "mesh.ply", "mesh.png", "chamfer.json"):
+        assert (out / name).stat().st_size > 0, name
+    result = json.loads((out / "chamfer.json").read_text())
+    assert result["chamfer"] == pytest.approx((result["learned_to_truth"] + result["truth_to_learned"]) / 2)
+    assert read_video(out / "color.mp4").shape == (4, 12, 12, 3)
+
+
+def test_video_cli_errors_say_what_to_do(tiny_checkpoint, bunny_small, tmp_path):
+    from mitnerf.render.pipeline import RenderConfig
+    from mitnerf.train.checkpoint import save_checkpoint
+    from mitnerf.train.config import ModelConfig, TrainConfig
+    from mitnerf.train.trainer import fit
+
+    with pytest.raises(MitnerfError, match="does not exist.*mitnerf fit"):
+        video_cli(["--checkpoint", str(tmp_path / "nothing"), "--out", str(tmp_path / "v")])
+    with pytest.raises(MitnerfError, match="--level must be"):
+        video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--level", "high"])
+    # 20 steps leave densities near 0.3 everywhere: level 10 has no surface; the videos are still written
+    with pytest.raises(MitnerfError, match=r"videos are in .*no surface at density level 10.*span \["):
+        video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--frames", "2",
+                   "--resolution", "8", "--mesh-resolution", "8"])
+    assert (tmp_path / "v" / "color.gif").exists()
+    mc = ModelConfig("vanilla", dict(width=16, depth=2), RenderConfig(n_coarse=16))
+    run2d = fit(bunny_small, mc, TrainConfig(iters=2, val_every=0, progress=False, batch_rays=64), "drjit")
+    save_checkpoint(run2d, tmp_path / "ckpt2d")
+    with pytest.raises(MitnerfError, match="2D field.*3D checkpoint"):
+        video_cli(["--checkpoint", str(tmp_path / "ckpt2d"), "--out", str(tmp_path / "v2")])
