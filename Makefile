@@ -9,7 +9,7 @@ setup-test:
 	./scripts/setup.sh test
 
 demo: setup
-	$(PY) examples/make_dataset.py
+	$(PY) examples/fit_bunny.py
 
 test: setup-test
 	$(PY) -m pytest -q tests

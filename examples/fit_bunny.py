@@ -1,7 +1,7 @@
 """Fit the 2D bunny: NeRF2D's protocol (50 training views of 100 px), on 2 cores.
 
 Renders (or reuses a cached copy of) the bunny dataset, trains the chosen field with
-its preset, and writes under ``--out``: the test views beside ground truth, the depth
+its preset (default: the dense grid for 10 seconds), and writes under ``--out``: the test views beside ground truth, the depth
 strip, the density field, the loss/PSNR curves, the checkpoint and metrics.
 
     python examples/fit_bunny.py [--field F] [--backend drjit|torch] [--iters N] [--time-budget S]
@@ -21,7 +21,8 @@ from mitnerf.train.presets import preset, preset_fields
 from mitnerf.train.report import fit_and_report, summary_line
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_FIELD = "vanilla"
+DEFAULT_FIELD = "grid"
+DEFAULT_BUDGET = {"grid": 10.0}     # seconds of training; other fields run their preset's steps
 
 
 def bunny_dataset(folder: Path):
@@ -54,8 +55,11 @@ def main(argv=None) -> int:
     train_cfg.seed = args.seed
     if args.iters is not None:
         train_cfg.iters = args.iters
-    if args.time_budget is not None:
-        train_cfg.time_budget = args.time_budget
+    budget = args.time_budget if args.time_budget is not None else DEFAULT_BUDGET.get(args.field)
+    if budget is not None and args.iters is None:
+        train_cfg.time_budget, train_cfg.iters = budget, 100_000
+    elif budget is not None:
+        train_cfg.time_budget = budget
     out = Path(args.out or ROOT / "out" / "fit_bunny" / f"{args.field}-{args.backend}")
     _, metrics = fit_and_report(ds, model_cfg, train_cfg, args.backend, out)
     print(f"wrote {out}: test_views.png, test_depth.png, density.png, curves.png")

@@ -82,6 +82,12 @@ def register(sub) -> None:
     p.add_argument("--batch", type=int, default=1024, help="rays per step")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--val-every", type=int, default=250)
+    g = p.add_argument_group("auto-sizing (--auto)")
+    g.add_argument("--auto", action="store_true",
+                   help="search for the smallest model that reaches --target validation PSNR, then train it")
+    g.add_argument("--target", type=float, default=30.0, help="validation PSNR to reach (dB)")
+    g.add_argument("--auto-steps", type=int, default=400, help="training steps per candidate")
+    g.add_argument("--auto-budget", type=float, default=300.0, help="seconds for the whole search")
     add_model_args(p)
     p.set_defaults(run=run_fit)
 
@@ -98,6 +104,16 @@ def run_fit(args) -> int:
     mc = model_config(args, ds)
     tc = TrainConfig(iters=args.iters, time_budget=args.time_budget, batch_rays=args.batch, lr=args.lr,
                      lr_final=args.lr_final, seed=args.seed, val_every=args.val_every)
+    if args.auto:
+        from ..train.auto import AutoConfig, auto_size
+
+        result = auto_size(ds, AutoConfig(target_psnr=args.target, steps=args.auto_steps,
+                                          time_budget=args.auto_budget, seed=args.seed, batch_rays=args.batch))
+        print(result.table())
+        for reason in result.reasons:
+            print(f"- {reason}")
+        mc = result.model
+        tc.lr, tc.lr_final = result.train.lr, result.train.lr_final
     try:
         from ..fields import field_config
 

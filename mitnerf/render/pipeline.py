@@ -16,6 +16,7 @@ import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
 from .integral import RenderOutput
+from .occupancy import OccupancyConfig, OccupiedSampler
 from .samplers import Stratified, importance_sample
 from .volume import volume_render
 
@@ -34,6 +35,13 @@ class RenderConfig:
     """Colour behind the object (display space)."""
     method: str = "replay"
     """``replay`` (custom operation) or ``autodiff`` (plain AD, the check)."""
+    occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
+    """Empty-space skipping: an occupancy grid places the coarse samples (``n_coarse``)."""
+
+    def __post_init__(self):
+        self.background = tuple(self.background)
+        if isinstance(self.occupancy, dict):
+            self.occupancy = OccupancyConfig(**self.occupancy)
 
 
 def split_params(params: dict, prefix: str) -> dict:
@@ -96,14 +104,24 @@ class Model:
         g = self.final_field()
         return self.fields[g].density(split_params(params, g), x)
 
+    def coarse_sampler(self, origins: list, directions: list, near, far, seed: UInt32, training: bool,
+                       occupied: Float | None):
+        cfg = self.render_cfg
+        if occupied is None or not cfg.occupancy.enabled:
+            return Stratified(cfg.n_coarse, seed, jitter=training)
+        sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins, self.fields["coarse"].cfg.bound,
+                                  cfg.occupancy.resolution, seed, jitter=training)
+        return sampler.build(origins, directions, near, far)
+
     def render(self, params: dict, origins: list, directions: list, near, far, seed: UInt32,
-               training: bool, weights: bool = False, input_grads: bool = False) -> dict:
+               training: bool, weights: bool = False, input_grads: bool = False,
+               occupied: Float | None = None) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
         ``'samples': (t, delta)`` of the final pass when ``weights`` is set."""
         cfg = self.render_cfg
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
-        coarse = Stratified(cfg.n_coarse, seed, jitter=training)
+        coarse = self.coarse_sampler(origins, directions, near, far, seed, training, occupied)
         pc = split_params(params, "coarse")
         out_c = volume_render(self.fields["coarse"], pc, origins, directions, near, far, coarse, cfg.background,
                               method=cfg.method, weights=weights or cfg.n_fine > 0, input_grads=input_grads)

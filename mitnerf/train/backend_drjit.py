@@ -10,6 +10,7 @@ from drjit.auto.ad import Float, UInt32
 from drjit.opt import Adam
 
 from ..fields import make_field
+from ..render.occupancy import OccupancyGrid
 from ..render.pipeline import Model, final
 from ..render.samplers import hash_u32
 from .config import ModelConfig, TrainConfig
@@ -54,15 +55,20 @@ class DrJitBackend:
         self.opt = Adam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2,
                         epsilon=train_cfg.eps, params=self.model.init_params(train_cfg.seed))
         self.data = None
+        occ = model_cfg.render.occupancy
+        self.occupancy = OccupancyGrid(occ, dim, bound) if occ.enabled else None
         # auto_opaque=False: every input is opaque from the first recording on, so a changing
         # value never bakes into a kernel (two recordings: before and after Adam has state).
-        self._frozen = (dr.freeze(self._make_step(), auto_opaque=False) if train_cfg.freeze
-                        else self._make_step())
+        self._freeze = train_cfg.freeze
+        self._frozen = self._new_step()
 
     # ------------------------------------------------------------------ training
     def set_data(self, rays: RaySet) -> None:
         self.data = to_device(rays)
         self.n_pixels = len(rays)
+
+    def _new_step(self):
+        return dr.freeze(self._make_step(), auto_opaque=False) if self._freeze else self._make_step()
 
     def _make_step(self):
         model, cfg = self.model, self.cfg
@@ -70,7 +76,7 @@ class DrJitBackend:
         B = cfg.batch_rays
         use_depth = cfg.depth_weight > 0
 
-        def step(opt, data, n_pixels, seed, lr):
+        def step(opt, data, n_pixels, seed, lr, occupied):
             # Dr.Jit 1.5.0's Adam multiplies an array-valued learning rate *in place* by each
             # parameter's bias correction (opt._LRCache.product: `scale_o *= arg`), so one
             # shared array compounds across parameters and flips signs. Each parameter gets
@@ -80,7 +86,7 @@ class DrJitBackend:
             g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
             o, d, target = g(data.origins), g(data.directions), g(data.target)
             params = {k: opt[k] for k in opt.keys()}
-            outs = model.render(params, o, d, near, far, seed, training=True, weights=use_depth)
+            outs = model.render(params, o, d, near, far, seed, training=True, weights=use_depth, occupied=occupied)
             out = final(outs)
             loss = mse(out.rgb, target)
             if outs["fine"] is not None and cfg.coarse_weight > 0:
@@ -104,8 +110,16 @@ class DrJitBackend:
         if new:                     # a resized parameter also resets its Adam state
             for k, v in new.items():
                 self.opt[k] = v
+            # a fresh recording: replaying a frozen step after its inputs changed shape twice
+            # crashes Dr.Jit 1.5.0 (segmentation fault), so old recordings are dropped
+            self._frozen = self._new_step()
+        occ = self.occupancy
+        if occ is not None and index % occ.cfg.update_every == 0:
+            params = {k: dr.detach(v) for k, v in self.params.items()}
+            occ.update(lambda x: self.model.density(params, x), index, seed)
         return self._frozen(self.opt, self.data, dr.opaque(UInt32, self.n_pixels),
-                            dr.opaque(UInt32, seed), dr.opaque(Float, lr))
+                            dr.opaque(UInt32, seed), dr.opaque(Float, lr),
+                            occ.occupied if occ is not None else None)
 
     @staticmethod
     def scalar(loss) -> float:
@@ -125,7 +139,9 @@ class DrJitBackend:
             for s in range(0, len(origins), chunk):
                 o = [Float(np.ascontiguousarray(c)) for c in origins[s:s + chunk].T]
                 d = [Float(np.ascontiguousarray(c)) for c in directions[s:s + chunk].T]
-                out = final(self.model.render(params, o, d, self.near, self.far, UInt32(0), training=False))
+                occupied = self.occupancy.occupied if self.occupancy is not None else None
+                out = final(self.model.render(params, o, d, self.near, self.far, UInt32(0), training=False,
+                                              occupied=occupied))
                 dr.eval(out.rgb, out.depth, out.opacity)
                 parts.append((np.stack([np.asarray(c) for c in out.rgb], 1), np.asarray(out.depth),
                               np.asarray(out.opacity)))
@@ -142,8 +158,15 @@ class DrJitBackend:
             return np.asarray(s)
 
     def get_weights(self) -> dict[str, np.ndarray]:
-        return self.model.to_numpy(self.params)
+        out = self.model.to_numpy(self.params)
+        if self.occupancy is not None:
+            out.update({f"occupancy.{k}": v for k, v in self.occupancy.state().items()})
+        return out
 
     def set_weights(self, arrays: dict[str, np.ndarray]) -> None:
+        arrays = dict(arrays)
+        occ = {k.split(".", 1)[1]: arrays.pop(k) for k in list(arrays) if k.startswith("occupancy.")}
+        if occ and self.occupancy is not None:
+            self.occupancy.load(occ)
         for k, v in self.model.from_numpy(arrays).items():
             self.opt[k] = v

@@ -38,6 +38,13 @@ class TorchBackend:
         self.cfg = train_cfg
         self.opt = torch.optim.Adam(self.model.parameters(), lr=train_cfg.lr, betas=(train_cfg.beta1, train_cfg.beta2),
                                     eps=train_cfg.eps)
+        occ = model_cfg.render.occupancy
+        if occ.enabled:
+            from ..reference.render.occupancy import OccupancyGrid
+
+            self.occupancy = OccupancyGrid(occ, dim, bound)
+        else:
+            self.occupancy = None
 
     def set_data(self, rays: RaySet) -> None:
         t = self.torch
@@ -59,6 +66,9 @@ class TorchBackend:
 
         if self.model.schedule(index):
             self._rebuild_optimizer()
+        if self.occupancy is not None and index % self.occupancy.cfg.update_every == 0:
+            with self.torch.no_grad():
+                self.occupancy.update(self.model.density, index, seed)
         cfg = self.cfg
         for group in self.opt.param_groups:
             group["lr"] = lr
@@ -66,7 +76,7 @@ class TorchBackend:
         b = {k: v[idx] for k, v in self.data.items()}
         use_depth = cfg.depth_weight > 0
         outs = self.model.render(b["origins"], b["directions"], self.near, self.far, seed, training=True,
-                                 weights=use_depth)
+                                 weights=use_depth, occupancy=self.occupancy)
         out = outs["fine"] if outs["fine"] is not None else outs["coarse"]
         loss = mse(out.rgb, b["target"])
         if outs["fine"] is not None and cfg.coarse_weight > 0:
@@ -92,7 +102,7 @@ class TorchBackend:
         with t.no_grad():
             for s in range(0, len(origins), chunk):
                 o, d = t.from_numpy(origins[s:s + chunk]), t.from_numpy(directions[s:s + chunk])
-                outs = self.model.render(o, d, self.near, self.far, 0, training=False)
+                outs = self.model.render(o, d, self.near, self.far, 0, training=False, occupancy=self.occupancy)
                 out = outs["fine"] if outs["fine"] is not None else outs["coarse"]
                 parts.append((out.rgb.numpy(), out.depth.numpy(), out.opacity.numpy()))
         if not parts:
@@ -105,7 +115,14 @@ class TorchBackend:
             return self.model.density(self.torch.from_numpy(x.astype(np.float32))).numpy()
 
     def get_weights(self) -> dict[str, np.ndarray]:
-        return self.model.to_numpy()
+        out = self.model.to_numpy()
+        if self.occupancy is not None:
+            out.update({f"occupancy.{k}": v for k, v in self.occupancy.state().items()})
+        return out
 
     def set_weights(self, arrays: dict[str, np.ndarray]) -> None:
+        arrays = dict(arrays)
+        occ = {k.split(".", 1)[1]: arrays.pop(k) for k in list(arrays) if k.startswith("occupancy.")}
+        if occ and self.occupancy is not None:
+            self.occupancy.load(occ)
         self.model.load_numpy(arrays)

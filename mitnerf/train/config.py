@@ -24,10 +24,7 @@ class ModelConfig:
 
     @classmethod
     def from_dict(cls, d: dict) -> "ModelConfig":
-        r = dict(d.get("render", {}))
-        if "background" in r:
-            r["background"] = tuple(r["background"])
-        return cls(d.get("field", "vanilla"), dict(d.get("field_args", {})), RenderConfig(**r))
+        return cls(d.get("field", "vanilla"), dict(d.get("field_args", {})), RenderConfig(**d.get("render", {})))
 
 
 @dataclass

@@ -125,7 +125,10 @@ def _train(run: Run, val, dataset: Dataset) -> None:
     budget = cfg.time_budget
     bg = tuple(run.model_cfg.render.background)
     pending = []          # losses not yet read back (reading forces a sync)
-    bar = tqdm(total=cfg.iters, desc=f"fit {be.name}", unit="step", disable=not cfg.progress, leave=False)
+    # under a time budget the bar follows the clock, otherwise the steps
+    bar = tqdm(total=budget if budget is not None else cfg.iters, desc=f"fit {be.name}", leave=False,
+               unit="s" if budget is not None else "step", disable=not cfg.progress, mininterval=0.5,
+               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s{postfix}" if budget is not None else None)
     train_time, step = 0.0, 0
     t_last = time.perf_counter()
 
@@ -155,8 +158,9 @@ def _train(run: Run, val, dataset: Dataset) -> None:
                 now = time.perf_counter()
                 train_time += now - t_last
                 t_last = now
-                bar.update(step - bar.n)
-                bar.set_postfix(loss=f"{h['loss'][-1]:.2e}", rays_s=f"{cfg.batch_rays * step / max(train_time, 1e-9):.3g}")
+                bar.update(min(train_time, budget) - bar.n if budget is not None else step - bar.n)
+                bar.set_postfix(step=step, loss=f"{h['loss'][-1]:.2e}",
+                                rays_s=f"{cfg.batch_rays * step / max(train_time, 1e-9):.3g}", refresh=False)
             if val is not None and cfg.val_every and step % cfg.val_every == 0:
                 _validate(run, val, bg, step, train_time)
                 t_last = time.perf_counter()          # validation is not training time

@@ -43,10 +43,17 @@ class Model(nn.Module):
     def density(self, x: torch.Tensor) -> torch.Tensor:
         return self.fields[self.final_field()].density(x)
 
-    def render(self, origins, directions, near, far, seed: int, training: bool, weights: bool = False) -> dict:
+    def render(self, origins, directions, near, far, seed: int, training: bool, weights: bool = False,
+               occupancy=None) -> dict:
         cfg = self.render_cfg
         n = origins.shape[0]
-        coarse = Stratified(cfg.n_coarse, int(np.uint32(seed)), jitter=training)
+        if occupancy is not None and cfg.occupancy.enabled:
+            from .occupancy import occupied_samples
+
+            coarse = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse,
+                                      int(np.uint32(seed)), training)
+        else:
+            coarse = Stratified(cfg.n_coarse, int(np.uint32(seed)), jitter=training)
         out_c = volume_render(self.fields["coarse"], origins, directions, near, far, coarse, cfg.background,
                               weights=True)
         if cfg.n_fine <= 0:

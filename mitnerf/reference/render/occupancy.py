@@ -1,0 +1,82 @@
+"""Twin of :mod:`mitnerf.render.occupancy` (the same cells, jitter, thresholds and placement)."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from ...render.occupancy import OccupancyConfig
+from .samplers import Explicit, uniform
+
+
+def cell_index(x: torch.Tensor, bound: float, res: int):
+    """``x [m, D]`` -> flat cell index [m], inside [m]."""
+    u = (x / bound + 1.0) * (0.5 * res)
+    inside = ((u >= 0) & (u < res)).all(dim=1)
+    cell = torch.clamp(u, 0.0, res - 1.0).long()
+    stride = res ** torch.arange(x.shape[1])
+    return (cell * stride).sum(1), inside
+
+
+class OccupancyGrid:
+    def __init__(self, cfg: OccupancyConfig, dim: int, bound: float):
+        self.cfg, self.dim, self.bound = cfg, dim, bound
+        n = cfg.resolution ** dim
+        self.value = torch.zeros(n)
+        self.occupied = torch.ones(n)
+
+    def cell_centres(self, jitter: int | None = None) -> torch.Tensor:
+        res = self.cfg.resolution
+        idx = np.arange(res ** self.dim, dtype=np.uint32)
+        cols = []
+        for a in range(self.dim):
+            c = ((idx // res ** a) % res).astype(np.float32)
+            off = np.float32(0.5) if jitter is None else uniform(jitter, idx, np.full(idx.shape, a, np.uint32))
+            cols.append(((c + off) * np.float32(2.0 / res) - np.float32(1.0)) * np.float32(self.bound))
+        return torch.from_numpy(np.stack(cols, 1).astype(np.float32))
+
+    def update(self, density_fn, step: int, seed: int) -> None:
+        if step < self.cfg.warmup:
+            return
+        with torch.no_grad():
+            sigma = density_fn(self.cell_centres(jitter=seed))
+            self.value = torch.maximum(self.value * self.cfg.decay, sigma)
+            level = torch.clamp(self.value.mean(), max=self.cfg.threshold)
+            self.occupied = (self.value > level).float()
+
+    def state(self) -> dict:
+        return {"value": self.value.numpy(), "occupied": self.occupied.numpy()}
+
+    def load(self, state: dict) -> None:
+        self.value = torch.as_tensor(np.asarray(state["value"], np.float32))
+        self.occupied = torch.as_tensor(np.asarray(state["occupied"], np.float32))
+
+
+def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int, seed: int, jitter: bool) -> Explicit:
+    """Twin of ``OccupiedSampler.build``: ``origins, directions [n_rays, D]``."""
+    bins = grid.cfg.march_bins
+    n_rays = origins.shape[0]
+    near = torch.as_tensor(near, dtype=torch.float32).reshape(-1, 1).expand(n_rays, 1)
+    far = torch.as_tensor(far, dtype=torch.float32).reshape(-1, 1).expand(n_rays, 1)
+    k = torch.arange(bins, dtype=torch.float32)
+    dt = (far - near) * (1.0 / bins)
+    t_mid = near + (k + 0.5) * ((far - near) * (1.0 / bins))                     # [n_rays, M]
+    x = origins[:, None, :] + t_mid[..., None] * directions[:, None, :]
+    cell, inside = cell_index(x.reshape(-1, origins.shape[1]), grid.bound, grid.cfg.resolution)
+    occ = (inside & (grid.occupied[cell] > 0.5)).reshape(n_rays, bins)
+    K = occ.sum(1, keepdim=True)
+    stride = torch.clamp((K + (n - 1)) // n, min=1)
+    rank = torch.cumsum(occ.long(), 1) - occ.long()                               # occupied bins before
+    j = rank // stride
+    take = occ & (rank % stride == 0) & (j < n)
+    rays = np.repeat(np.arange(n_rays, dtype=np.uint32), bins).reshape(n_rays, bins)
+    kk = np.tile(np.arange(bins, dtype=np.uint32), (n_rays, 1))
+    u = torch.from_numpy(uniform(seed, rays, kk)) if jitter else torch.full((n_rays, bins), 0.5)
+    group = torch.minimum(stride, K - rank)
+    t_out = far.expand(n_rays, n).clone()
+    d_out = torch.zeros(n_rays, n)
+    r_idx, k_idx = torch.nonzero(take, as_tuple=True)
+    slot = j[r_idx, k_idx]
+    t_out[r_idx, slot] = (near[:, 0][r_idx] + (k_idx.float() + u[r_idx, k_idx]) * dt[:, 0][r_idx])
+    d_out[r_idx, slot] = group[r_idx, k_idx].float() * dt[:, 0][r_idx]
+    return Explicit(t_out, n, d_out)

@@ -1,0 +1,152 @@
+"""Empty-space skipping: an occupancy grid and a sampler that only samples occupied space.
+
+**The grid** (as in instant-ngp / nerfacc) covers ``[-bound, bound]^D`` with ``R^D`` cells.
+Every ``update_every`` training steps each cell's density is measured at a jittered
+point inside it; a running value keeps ``max(decay * previous, measured)``, and a cell
+is occupied while that value exceeds ``min(threshold, mean)``. Before ``warmup`` steps,
+and for a grid never updated, every cell counts as occupied.
+
+**The sampler** splits ``[near, far]`` of a ray into ``M = march_bins`` equal bins and
+looks each bin's centre up in the grid. A ray with ``K`` occupied bins gets its ``N``
+samples from them: with ``stride = ceil(K / N)``, every ``stride``-th occupied bin
+starts a group, one jittered sample is placed in that bin and stands for the group's
+``stride * dt`` of occupied length. Unused slots get ``delta = 0``. Early on (all
+occupied) this is stratified sampling with ``N`` samples; once the grid is sharp, the
+samples crowd the surfaces. Dropped samples are taken as empty; the integral is exact
+for the samples kept. The number of samples stays fixed, so the step can be frozen.
+Twin: :mod:`mitnerf.reference.render.occupancy`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import drjit as dr
+import numpy as np
+from drjit.auto.ad import Float, UInt32
+
+from .samplers import Explicit, per_sample, uniform
+
+
+@dataclass
+class OccupancyConfig:
+    """Empty-space skipping."""
+
+    enabled: bool = False
+    """Use the occupancy grid and sampler."""
+    resolution: int = 128
+    """Cells per axis of the grid."""
+    update_every: int = 16
+    """Training steps between grid updates."""
+    warmup: int = 64
+    """Steps before the first update (the field has learned nothing yet)."""
+    decay: float = 0.95
+    """Decay of the running density per update."""
+    threshold: float = 0.01
+    """Density below which a cell is empty (or the mean, if that is smaller)."""
+    march_bins: int = 512
+    """Bins per ray in which occupancy is looked up (the finest sample spacing)."""
+
+
+def cell_index(x: list, bound: float, res: int):
+    """Flat cell index of points ``x`` (D arrays) and whether they lie inside the grid."""
+    index, stride, inside = UInt32(0), 1, None
+    for xi in x:
+        u = (xi * (1.0 / bound) + 1.0) * (0.5 * res)
+        ok = (u >= 0.0) & (u < res)
+        inside = ok if inside is None else inside & ok
+        index = index + UInt32(dr.clip(u, 0.0, res - 1.0)) * stride
+        stride *= res
+    return index, inside
+
+
+class OccupancyGrid:
+    """The running densities and the occupied mask; see the module docstring."""
+
+    def __init__(self, cfg: OccupancyConfig, dim: int, bound: float):
+        self.cfg, self.dim, self.bound = cfg, dim, bound
+        n = cfg.resolution ** dim
+        self.value = dr.zeros(Float, n)
+        self.occupied = dr.full(Float, 1.0, n)      # 1 occupied / 0 empty (a Float: a PyTree leaf)
+
+    def cell_centres(self, jitter: Float | None = None) -> list:
+        res = self.cfg.resolution
+        idx = dr.arange(UInt32, res ** self.dim)
+        pts, stride = [], 1
+        for a in range(self.dim):
+            c = Float((idx // stride) % res)
+            off = 0.5 if jitter is None else uniform(UInt32(jitter), idx, UInt32(a))
+            pts.append(((c + off) * (2.0 / res) - 1.0) * self.bound)
+            stride *= res
+        return pts
+
+    def update(self, density_fn, step: int, seed: int) -> None:
+        """Measure ``density_fn(points) -> Float`` in every cell and refresh the mask."""
+        if step < self.cfg.warmup:
+            return
+        with dr.suspend_grad():
+            sigma = dr.detach(density_fn(self.cell_centres(jitter=seed)))
+            self.value = dr.maximum(self.value * self.cfg.decay, sigma)
+            level = dr.minimum(dr.mean(self.value), self.cfg.threshold)
+            self.occupied = dr.select(self.value > level, 1.0, 0.0)
+            dr.eval(self.value, self.occupied)
+
+    def fraction(self) -> float:
+        return float(dr.mean(self.occupied)[0])
+
+    def state(self) -> dict:
+        return {"value": np.asarray(self.value), "occupied": np.asarray(self.occupied)}
+
+    def load(self, state: dict) -> None:
+        self.value, self.occupied = Float(state["value"]), Float(state["occupied"])
+
+
+@dataclass
+class OccupiedSampler:
+    """``n`` samples per ray from the occupied bins (see the module docstring)."""
+
+    occupied: Float
+    n: int
+    bins: int
+    bound: float
+    resolution: int
+    seed: UInt32
+    jitter: bool = True
+
+    def _bin_occupied(self, origins, directions, ray, k, near, far):
+        t = near + (Float(k) + 0.5) * ((far - near) * (1.0 / self.bins))
+        x = [dr.gather(Float, o, ray) + t * dr.gather(Float, d, ray) for o, d in zip(origins, directions)]
+        cell, inside = cell_index(x, self.bound, self.resolution)
+        return inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
+
+    def build(self, origins: list, directions: list, near, far) -> Explicit:
+        """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals."""
+        n_rays = dr.width(origins[0])
+        ray = dr.arange(UInt32, n_rays)
+        near_r, far_r = per_sample(Float(near), ray), per_sample(Float(far), ray)
+        dt = (far_r - near_r) * (1.0 / self.bins)
+
+        def count_body(k, count):
+            occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
+            return k + 1, count + dr.select(occ, 1, 0)
+
+        _, K = dr.while_loop((UInt32(0), dr.zeros(UInt32, n_rays)), lambda k, c: k < self.bins, count_body,
+                             label="occupancy_count")
+        stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
+        # unused slots: t = far, delta = 0 (no contribution)
+        t_out = dr.gather(Float, far_r, dr.arange(UInt32, n_rays * self.n) // self.n)
+        d_out = dr.zeros(Float, n_rays * self.n)
+
+        def place_body(k, rank):
+            occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
+            j = rank // stride
+            take = occ & (rank % stride == 0) & (j < self.n)
+            u = uniform(self.seed, ray, k) if self.jitter else Float(0.5)
+            group = dr.minimum(stride, K - rank)            # the last group may hold fewer bins
+            dr.scatter(t_out, near_r + (Float(k) + u) * dt, ray * self.n + j, take)
+            dr.scatter(d_out, Float(group) * dt, ray * self.n + j, take)
+            return k + 1, rank + dr.select(occ, 1, 0)
+
+        dr.while_loop((UInt32(0), dr.zeros(UInt32, n_rays)), lambda k, r: k < self.bins, place_body,
+                      label="occupancy_place")
+        return Explicit(t_out, self.n, d_out)

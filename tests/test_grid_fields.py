@@ -1,0 +1,109 @@
+"""Grid and hash-grid fields, empty-space skipping, and auto-sizing."""
+
+import sys
+from pathlib import Path
+
+import drjit as dr
+import numpy as np
+import pytest
+from drjit.auto.ad import Float, UInt32
+
+from mitnerf.fields.grid import GridConfig, GridField
+from mitnerf.fields.hashenc import hash_encode, hash_layout
+from mitnerf.render.occupancy import OccupancyConfig, OccupancyGrid, OccupiedSampler, cell_index
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+
+
+@pytest.mark.parametrize("dim, levels, log2_T, base, scale", [(2, 12, 12, 8, 1.5), (3, 6, 14, 16, 1.7)])
+def test_our_hash_encoding_is_drjits(dim, levels, log2_T, base, scale):
+    import drjit.nn as nn
+
+    enc = nn.HashGridEncoding(Float, dim, n_levels=levels, n_features_per_level=2, hashmap_size=2 ** log2_T,
+                              base_resolution=base, per_level_scale=scale, rng=dr.rng(seed=0))
+    layout = hash_layout(dim, levels, 2, 2 ** log2_T, base, scale)
+    assert layout.n_params == enc.n_params
+    table = Float(np.random.default_rng(1).normal(size=enc.n_params).astype(np.float32))
+    enc.data = table
+    x = [Float(np.random.default_rng(2 + k).random(2000).astype(np.float32)) for k in range(dim)]
+    ours = np.array([np.asarray(v) for v in hash_encode(table, x, layout)])
+    theirs = np.array([np.asarray(v) for v in enc(x)])
+    np.testing.assert_allclose(ours, theirs, atol=5e-4)   # fp32 rounding; values are O(1)
+
+
+def test_grid_resize_keeps_a_linear_field():
+    # bilinear interpolation reproduces linear functions exactly, so upsampling a grid that
+    # holds f(x, y) = 0.3 x - 0.2 y + 0.1 must give the same function at any point
+    f = GridField(GridConfig(dim=2, resolution=33, initial_resolution=9, density_scale=1.0, bound=1.5))
+    u = np.linspace(-1.5, 1.5, 9, dtype=np.float32)
+    X, Y = np.meshgrid(u, u)                           # row = y, column = x
+    lin = 0.3 * X - 0.2 * Y + 0.1
+    params = {"density": Float(lin.ravel()), "color": Float(np.zeros(81 * 3, np.float32))}
+    big = f.resize(params, 33)
+    assert dr.width(big["density"]) == 33 * 33
+    pts = np.random.default_rng(0).uniform(-1.4, 1.4, (2, 100)).astype(np.float32)
+    from mitnerf.fields.grid import corner_weights, interpolate
+
+    for p, res in ((params, 9), (big, 33)):
+        corners, _ = corner_weights([Float(pts[0]), Float(pts[1])], 1.5, res)
+        val = np.asarray(interpolate(p["density"], 1, corners)[0])
+        np.testing.assert_allclose(val, 0.3 * pts[0] - 0.2 * pts[1] + 0.1, atol=1e-5)
+
+
+def test_occupancy_keeps_every_sample_with_density():
+    """A known field, dense in a checkerboard of occupancy cells: after one update exactly
+    those cells are occupied, and a ray's samples land in every bin whose density exceeds
+    the threshold and in no other."""
+    cfg = OccupancyConfig(enabled=True, resolution=8, warmup=0, threshold=0.01, march_bins=64)
+    grid = OccupancyGrid(cfg, 2, bound=1.0)
+
+    def density(x):                                    # 5 in cells (i + j) even, 0 elsewhere
+        cell, inside = cell_index(x, 1.0, 8)
+        checker = ((cell % 8) + (cell // 8)) % 2 == 0
+        return dr.select(inside & checker, 5.0, 0.0)
+
+    grid.update(density, step=0, seed=3)
+    occ = np.asarray(grid.occupied).reshape(8, 8)
+    i, j = np.meshgrid(np.arange(8), np.arange(8))
+    np.testing.assert_array_equal(occ, ((i + j) % 2 == 0).astype(np.float32))
+    # rays along x at several heights: 64 bins over [0, 2] from x = -1; 32 occupied bins at most
+    n_rays = 5
+    ys = np.array([-0.9, -0.4, 0.05, 0.3, 0.8], np.float32)
+    o = [Float(np.full(n_rays, -1.0, np.float32)), Float(ys)]
+    d = [Float(np.ones(n_rays, np.float32)), Float(np.zeros(n_rays, np.float32))]
+    sampler = OccupiedSampler(grid.occupied, 32, 64, 1.0, 8, UInt32(1), jitter=True)
+    ex = sampler.build(o, d, 0.0, 2.0)
+    t = np.asarray(ex.t_flat).reshape(n_rays, 32)
+    delta = np.asarray(ex.delta_flat).reshape(n_rays, 32)
+    for r in range(n_rays):
+        mids = (np.arange(64) + 0.5) / 32.0
+        x_mid = -1.0 + mids
+        dens = np.asarray(density([Float(x_mid.astype(np.float32)), Float(np.full(64, ys[r], np.float32))]))
+        wanted = set(np.flatnonzero(dens > 0.01))
+        used = t[r][delta[r] > 0]
+        got = set(np.floor(used * 32.0).astype(int))
+        assert got == wanted                            # every dense bin, and only those
+        np.testing.assert_allclose(delta[r][delta[r] > 0], 1 / 32.0)
+
+
+def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
+    from mitnerf.data.rig import RigConfig
+    from mitnerf.experiments.common import cached_dataset
+    from mitnerf.train.auto import AutoConfig, auto_size
+
+    cfg = AutoConfig(target_psnr=28.0, steps=250, families=("grid",), time_budget=120)
+    chosen = {}
+    for scene in ("square", "bunny"):
+        ds = cached_dataset(scene, RigConfig(dim=2, n_train=30, n_val=4, n_test=4, seed=0))
+        result = auto_size(ds, cfg)
+        chosen[scene] = result.model.field_args["resolution"]
+        assert result.reasons and len(result.trials) >= 2
+    assert chosen["square"] < chosen["bunny"], chosen
+
+
+@pytest.mark.parametrize("field, dim", [("grid", 2), ("grid", 3), ("hashgrid", 2), ("hashgrid", 3)])
+def test_grid_fields_pass_the_backend_checks(field, dim):
+    import check_backends
+
+    assert check_backends.main(["--field", field, "--dim", str(dim), "--rays", "24", "--samples", "12",
+                                "--fine", "8" if dim == 2 else "0"]) == 0
