@@ -8,12 +8,14 @@ import pytest
 
 from mitnerf.experiments import sweep_exec
 from mitnerf.experiments.pareto import pareto_front, reference_verdict
-from mitnerf.experiments.sweep import SweepConfig, build_rows, parse_budget, run_sweep
+from mitnerf.experiments.sweep import SweepConfig, build_rows, default_specs, parse_budget, run_sweep
 
 
 def quick_cfg(out, **kw):
     """2 rows: the tiny vanilla on square (8 views of 32 px), 15 steps, drjit and torch, 1 thread."""
-    return SweepConfig(out=out, quick=True, scenes=["square"], workers=1, threads=1, progress=False, **kw)
+    vanilla = [s for s in default_specs(quick=True) if s.family == "vanilla"]
+    return SweepConfig(out=out, quick=True, scenes=["square"], workers=1, threads=1, progress=False,
+                       configs=vanilla, **kw)
 
 
 @pytest.fixture(scope="module")
@@ -121,8 +123,9 @@ def test_command_line_options_become_a_config(tmp_path):
     cfg = sweep_cmd.config_from_args(args)
     assert (cfg.workers, cfg.threads, cfg.scenes, cfg.budgets, cfg.quick) == (2, 1, ["square", "tu"],
                                                                               ["5s", "100it"], True)
-    # 2 scenes x 1 size x 1 sample count x 2 backends x 2 budgets; no bunny, so no reference row
-    assert len(build_rows(cfg)) == 8
+    # 2 scenes x 3 families (1 size, 1 sample count each) x 2 backends x 2 budgets; no bunny, so no
+    # reference row
+    assert len(build_rows(cfg)) == 24
     for bad, match in ((["--executor", "dask"], "--scheduler"), (["--budgets", "5min"], "'20s'"),
                        (["--workers", "0"], "at least 1")):
         with pytest.raises(MitnerfError, match=match):

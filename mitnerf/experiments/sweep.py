@@ -55,18 +55,26 @@ from .._io import digest
 
 # ----------------------------------------------------------------------------- the grid
 SIZES: dict[str, dict[str, dict]] = {
-    # family: {size label: field_args overrides on the family's preset}
-    "vanilla": {"w32": dict(width=32), "w64": dict(width=64), "w128": dict(width=128)},
+    # family: {size label: field_args overrides on the family's preset, or {dim: overrides}}
+    "vanilla": {"w32": dict(width=32), "preset": {}},
+    "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
+                       3: dict(resolution=65, initial_resolution=33, upsample_at=(200,))},
+             "preset": {}},
+    "hashgrid": {"T12": dict(log2_hashmap_size=12), "preset": {}},
 }
 SAMPLES = (32, 64, 128)
 """Coarse samples per ray; a preset with a fine pass gets ``n_fine = samples // 2``."""
-BUDGETS = ("2s", "6s", "20s", "60s")
+BUDGETS = ("3s", "10s", "30s")
 """Training budget of every grid row."""
+TORCH_SIZES = ("preset",)
+"""Sizes that also run on the torch backend (the reference twin of every family)."""
 REFERENCE = dict(scene="bunny", family="vanilla", backend="torch", budget="600s")
 """The torch reference (the family's preset, unchanged): the yardstick of ``sweep.md``."""
 
 QUICK_SIZES: dict[str, dict[str, dict]] = {
     "vanilla": {"w16": dict(width=16, depth=2, pos_L=4, dir_L=2)},
+    "grid": {"r17": dict(resolution=17, initial_resolution=17, upsample_at=())},
+    "hashgrid": {"T10": dict(n_levels=4, log2_hashmap_size=10, hidden=8, geo_features=3)},
 }
 QUICK_SAMPLES = (16,)
 QUICK_BUDGETS = ("15it",)
@@ -154,11 +162,18 @@ def default_specs(quick: bool = False) -> list[Spec]:
     for family in preset_fields():
         if family not in FIELDS:
             continue
-        backends = ["drjit"] + (["torch"] if family in TORCH_FIELDS else [])
         for size, args in sizes.get(family, {"preset": {}}).items():
+            backends = ["drjit"] + (["torch"] if family in TORCH_FIELDS and (quick or size in TORCH_SIZES) else [])
             for n in samples:
                 specs += [Spec(family, size, dict(args), n, b) for b in backends]
     return specs
+
+
+def args_for_dim(args: dict, dim: int) -> dict:
+    """Size overrides given per dimension (``{2: {...}, 3: {...}}``) or for both."""
+    if args and all(isinstance(k, int) for k in args):
+        return dict(args.get(dim, {}))
+    return dict(args)
 
 
 def scene_rig(scene: str, quick: bool, seed: int):
@@ -184,7 +199,7 @@ def make_row(scene: str, rig, spec: Spec, budget: str, quick: bool, seed: int, t
     from ..train.presets import preset
 
     mc, tc = preset(spec.family, rig.dim)
-    mc.field_args.update(spec.field_args)
+    mc.field_args.update(args_for_dim(spec.field_args, rig.dim))
     if spec.samples is not None:
         if mc.render.n_fine > 0:
             mc.render.n_fine = spec.samples // 2
