@@ -75,3 +75,28 @@ def write_report(out: Path, title: str, sections: list[tuple[str, str]]) -> Path
     path = out / "report.md"
     path.write_text("\n".join(text))
     return path
+
+
+def train_eval(dataset: Dataset, model_cfg, train_cfg, backend: str = "drjit") -> tuple[object, dict]:
+    """Train and evaluate on the test split. A run that diverges or collapses
+    (``TrainingFailed``) returns ``run=None`` and a row with ``status='collapsed'``."""
+    import time
+
+    import numpy as np
+
+    from ..train.trainer import TrainingFailed, evaluate, fit
+
+    t0 = time.perf_counter()
+    try:
+        run = fit(dataset, model_cfg, train_cfg, backend)
+    except TrainingFailed as exc:
+        return None, {"status": "collapsed", "error": str(exc), "wall_time": time.perf_counter() - t0}
+    ev = evaluate(run, dataset, "test")
+    rgb = ev["renders"]["rgb"]
+    row = {"status": "ok", "psnr": ev["psnr"], "ssim": ev["ssim"], "depth_error": ev.get("depth_error", float("nan")),
+           "train_time": run.train_time, "steps": run.steps, "wall_time": time.perf_counter() - t0,
+           "render_std": float(np.std(rgb))}
+    if not np.isfinite(rgb).all() or row["render_std"] < 1e-2 * max(float(np.std(dataset["test"].color)), 1e-6):
+        row["status"] = "collapsed"              # constant (or NaN) renders at the end
+        row["error"] = "constant renders"
+    return (run, ev), row

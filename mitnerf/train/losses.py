@@ -40,6 +40,9 @@ def depth_kl(weights: Float, t: Float, delta: Float, depth: Float, hit: Float, N
     z = (t - D) * (1.0 / sigma)
     log_q = -0.5 * z * z - math.log(sigma * math.sqrt(2.0 * math.pi))
     q = dr.exp(log_q)
-    per_sample = q * delta * (log_q - dr.log(weights / delta + EPS))
+    # a zero-length interval (a jittered last sample rounding onto far, an unused occupancy
+    # slot) stands for nothing: skip it rather than take log(0 / 0)
+    safe = dr.maximum(delta, 1e-12)
+    per_sample = dr.select(delta > 0, q * delta * (log_q - dr.log(weights / safe + EPS)), 0.0)
     per_ray = dr.block_sum(per_sample, N) * hit
     return dr.sum(per_ray) / dr.maximum(dr.sum(hit), 1.0)

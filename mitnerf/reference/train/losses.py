@@ -17,5 +17,7 @@ def depth_kl(weights, t, delta, depth, hit, sigma: float) -> torch.Tensor:
     """``weights, t, delta [n_rays, N]``, ``depth, hit [n_rays]``."""
     z = (t - depth[:, None]) / sigma
     log_q = -0.5 * z * z - math.log(sigma * math.sqrt(2.0 * math.pi))
-    per_ray = (torch.exp(log_q) * delta * (log_q - torch.log(weights / delta + EPS))).sum(1) * hit
+    safe = torch.clamp(delta, min=1e-12)
+    term = torch.exp(log_q) * delta * (log_q - torch.log(weights / safe + EPS))
+    per_ray = torch.where(delta > 0, term, torch.zeros_like(term)).sum(1) * hit
     return per_ray.sum() / torch.clamp(hit.sum(), min=1.0)

@@ -1,0 +1,44 @@
+"""Matplotlib panels shared by the experiments' figure grids."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..viz.strips import colorize_depth, views_strip
+
+
+def strip_panel(ax, images: np.ndarray, title: str = "") -> None:
+    """2D views ``[n, H, 1, 3]`` as a views strip."""
+    ax.imshow(np.clip(views_strip(images, column_width=1), 0, 1), aspect="auto", interpolation="nearest")
+    ax.set_title(title, fontsize=8)
+    ax.set_xticks([]), ax.set_yticks([])
+
+
+def depth_panel(ax, depth: np.ndarray, opacity: np.ndarray | None, near: float, far: float, title: str = "") -> None:
+    """Termination depth of 2D views as a strip; pixels with opacity < 0.5 are black."""
+    d = depth if opacity is None else np.where(opacity > 0.5, depth / np.maximum(opacity, 1e-6), np.inf)
+    ax.imshow(views_strip(colorize_depth(d, near, far), column_width=1), aspect="auto", interpolation="nearest")
+    ax.set_title(title, fontsize=8)
+    ax.set_xticks([]), ax.set_yticks([])
+
+
+def density_panel(ax, backend, bound: float, outline=None, title: str = "", res: int = 160) -> None:
+    """The final field's density over ``[-bound, bound]^2`` (log scale), the true outline on top."""
+    from ..viz.training import density_grid
+
+    sigma = density_grid(backend, bound, 2, res)
+    ax.imshow(np.log10(1e-2 + np.maximum(sigma, 0)), cmap="magma", extent=(-bound, bound, -bound, bound),
+              vmin=-2, vmax=2.5)
+    if outline is not None:
+        pts = np.asarray(outline)
+        ax.plot(pts[:, 0], pts[:, 1], color="cyan", lw=0.6, alpha=0.8)
+    ax.set_title(title, fontsize=8)
+    ax.set_xticks([]), ax.set_yticks([])
+
+
+def save(fig, path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
