@@ -59,3 +59,24 @@ def test_bad_checkpoint_shapes_say_so():
     w = init_weights(NeRFConfig(width=32), 0)
     with pytest.raises(ValueError, match="another architecture"):
         f.from_numpy(w)
+
+
+@pytest.mark.parametrize("field, args", [("vanilla", dict(width=16, depth=3)), ("grid", dict(resolution=9)),
+                                         ("hashgrid", dict(n_levels=4, log2_hashmap_size=8, hidden=8,
+                                                           geo_features=3))])
+def test_weight_transfer_round_trip(field, args):
+    from mitnerf.reference.transfer import drjit_to_torch, torch_to_drjit
+    from mitnerf.render.pipeline import RenderConfig
+    from mitnerf.train.backend_drjit import build_model
+    from mitnerf.train.backend_torch import build_torch_model
+    from mitnerf.train.config import ModelConfig
+
+    mc = ModelConfig(field, args, RenderConfig(n_coarse=8, n_fine=4))
+    model, twin = build_model(mc, 2, 1.5), build_torch_model(mc, 2, 1.5)
+    params = model.init_params(3)
+    drjit_to_torch(model, params, twin)
+    back = model.to_numpy(torch_to_drjit(twin, model))
+    ref = model.to_numpy(params)
+    assert back.keys() == ref.keys()
+    for k in ref:
+        np.testing.assert_array_equal(back[k], ref[k])
