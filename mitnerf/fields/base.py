@@ -20,6 +20,14 @@ import drjit as dr
 DENSITY_ACTIVATIONS = ("relu", "softplus", "trunc_exp")
 
 
+def check_config(cfg) -> None:
+    """Validate the fields every field config has: ``dim`` and ``density_activation``."""
+    if cfg.dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got {cfg.dim}")
+    if cfg.density_activation not in DENSITY_ACTIVATIONS:
+        raise ValueError(f"density_activation must be one of {DENSITY_ACTIVATIONS}, got {cfg.density_activation!r}")
+
+
 def density_activation(raw, kind: str):
     """Raw network output -> density >= 0 (same formulas in the torch twin).
 

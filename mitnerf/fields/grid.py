@@ -27,7 +27,7 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
 
-from .base import DENSITY_ACTIVATIONS, density_activation, sigmoid
+from .base import check_config, density_activation, sigmoid
 
 
 @dataclass
@@ -61,10 +61,7 @@ class GridConfig:
     """Half-extent of the grid in world units."""
 
     def __post_init__(self):
-        if self.dim not in (2, 3):
-            raise ValueError(f"dim must be 2 or 3, got {self.dim}")
-        if self.density_activation not in DENSITY_ACTIVATIONS:
-            raise ValueError(f"density_activation must be one of {DENSITY_ACTIVATIONS}")
+        check_config(self)
         if self.initial_resolution is None:
             self.initial_resolution = self.resolution
         self.upsample_at = tuple(self.upsample_at)

@@ -24,7 +24,7 @@ import drjit.nn as nn
 import numpy as np
 from drjit.auto.ad import Float
 
-from .base import DENSITY_ACTIVATIONS, density_activation, sigmoid
+from .base import check_config, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size
 from .hashenc import hash_encode, hash_layout
 from .layers import LinearLayers, torch_default_init
@@ -69,10 +69,7 @@ class HashGridConfig:
     """Half-extent of the encoded region in world units."""
 
     def __post_init__(self):
-        if self.dim not in (2, 3):
-            raise ValueError(f"dim must be 2 or 3, got {self.dim}")
-        if self.density_activation not in DENSITY_ACTIVATIONS:
-            raise ValueError(f"density_activation must be one of {DENSITY_ACTIVATIONS}")
+        check_config(self)
         if self.mode not in ("coopvec", "tensor"):
             raise ValueError("mode must be coopvec or tensor")
         if self.encoding not in ("mitnerf", "drjit"):

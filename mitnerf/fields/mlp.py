@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from drjit.auto.ad import Float
 
-from .base import DENSITY_ACTIVATIONS, density_activation, sigmoid
+from .base import check_config, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size, positional_encoding
 from .layers import LinearLayers, torch_default_init
 
@@ -70,10 +70,7 @@ class NeRFConfig:
     def __post_init__(self):
         if self.skip is None:
             self.skip = self.depth // 2 if self.depth >= 4 else -1
-        if self.dim not in (2, 3):
-            raise ValueError(f"dim must be 2 or 3, got {self.dim}")
-        if self.density_activation not in DENSITY_ACTIVATIONS:
-            raise ValueError(f"density_activation must be one of {DENSITY_ACTIVATIONS}")
+        check_config(self)
         if self.mode not in ("auto", "coopvec", "tensor"):
             raise ValueError(f"mode must be auto, coopvec or tensor, got {self.mode!r}")
         if self.view_dependent and self.dir_L < 1:

@@ -13,7 +13,7 @@ from ..fields import make_field
 from ..render.occupancy import OccupancyGrid
 from ..render.pipeline import Model, final
 from ..render.samplers import hash_u32
-from .config import ModelConfig, TrainConfig
+from .config import ModelConfig, TrainConfig, model_fields
 from .losses import depth_kl, mse
 from .rays import RaySet
 
@@ -36,11 +36,7 @@ def to_device(rays: RaySet) -> DeviceRays:
 
 
 def build_model(cfg: ModelConfig, dim: int, bound: float) -> Model:
-    args = {**cfg.field_args, "dim": dim, "bound": bound}
-    fields = {"coarse": make_field(cfg.field, **args)}
-    if cfg.render.n_fine > 0 and cfg.render.separate_fine:
-        fields["fine"] = make_field(cfg.field, **args)
-    return Model(fields, cfg.render)
+    return Model(model_fields(cfg, dim, bound, make_field), cfg.render)
 
 
 class DrJitBackend:

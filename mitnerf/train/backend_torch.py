@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import ModelConfig, TrainConfig
+from .config import ModelConfig, TrainConfig, model_fields
 from .rays import RaySet, batch_indices
 
 
@@ -13,11 +13,7 @@ def build_torch_model(cfg: ModelConfig, dim: int, bound: float):
     from ..reference.fields import make_field
     from ..reference.render.pipeline import Model
 
-    args = {**cfg.field_args, "dim": dim, "bound": bound}
-    fields = {"coarse": make_field(cfg.field, **args)}
-    if cfg.render.n_fine > 0 and cfg.render.separate_fine:
-        fields["fine"] = make_field(cfg.field, **args)
-    return Model(fields, cfg.render)
+    return Model(model_fields(cfg, dim, bound, make_field), cfg.render)
 
 
 class TorchBackend:

@@ -27,6 +27,16 @@ class ModelConfig:
         return cls(d.get("field", "vanilla"), dict(d.get("field_args", {})), RenderConfig(**d.get("render", {})))
 
 
+def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
+    """The fields of a model (``coarse``, and ``fine`` with a separate fine pass), built by
+    ``make_field(family, **args)`` of either backend."""
+    args = {**cfg.field_args, "dim": dim, "bound": bound}
+    fields = {"coarse": make_field(cfg.field, **args)}
+    if cfg.render.n_fine > 0 and cfg.render.separate_fine:
+        fields["fine"] = make_field(cfg.field, **args)
+    return fields
+
+
 @dataclass
 class TrainConfig:
     """How long and how to optimise."""

@@ -32,7 +32,7 @@ def plot_mesh_comparison(learned: Mesh | str | Path, truth_path: str | Path | No
     import pyvista as pv
     import vtk
 
-    from .rigs import object_mesh
+    from .rigs import add_object_mesh
 
     vtk.vtkObject.GlobalWarningDisplayOff()     # no display here: VTK warns about X on every plot
     learned = as_mesh(learned)
@@ -50,13 +50,7 @@ def plot_mesh_comparison(learned: Mesh | str | Path, truth_path: str | Path | No
     pl.camera.view_angle = fov
     pl.subplot(0, 1)
     if truth_path is not None and Path(truth_path).exists():
-        mesh, texture = object_mesh(truth_path, texture_path)
-        if texture is not None:
-            pl.add_mesh(mesh, texture=texture)
-        elif "RGB" in mesh.point_data:
-            pl.add_mesh(mesh, scalars="RGB", rgb=True)
-        else:
-            pl.add_mesh(mesh, color="lightgray")
+        add_object_mesh(pl, truth_path, texture_path)
         pl.add_text(f"ground truth\n{Path(truth_path).name}", font_size=10, color="black")
     else:
         pl.add_text("no ground-truth mesh", font_size=10, color="red")

@@ -81,6 +81,18 @@ def object_mesh(mesh_path: str | Path, texture_path: str | Path | None = None):
     return mesh, texture
 
 
+def add_object_mesh(plotter, mesh_path, texture_path=None):
+    """Add one of our PLYs to a pyvista plotter with its texture, vertex colours, or grey."""
+    mesh, texture = object_mesh(mesh_path, texture_path)
+    if texture is not None:
+        plotter.add_mesh(mesh, texture=texture)
+    elif "RGB" in mesh.point_data:
+        plotter.add_mesh(mesh, scalars="RGB", rgb=True)
+    else:
+        plotter.add_mesh(mesh, color="lightgray")
+    return mesh
+
+
 def plot_rig_3d(cameras: dict[str, Cameras], mesh_path: str | Path | None, path: str | Path,
                 texture_path: str | Path | None = None, window=(900, 700)) -> Path:
     """The object mesh with every camera's frustum, rendered off-screen by pyvista."""
@@ -90,13 +102,7 @@ def plot_rig_3d(cameras: dict[str, Cameras], mesh_path: str | Path | None, path:
     vtk.vtkObject.GlobalWarningDisplayOff()     # no display here: VTK warns about X on every plot
     pl = pv.Plotter(off_screen=True, window_size=list(window))
     if mesh_path is not None and Path(mesh_path).exists():
-        mesh, texture = object_mesh(mesh_path, texture_path)
-        if texture is not None:
-            pl.add_mesh(mesh, texture=texture)
-        elif "RGB" in mesh.point_data:
-            pl.add_mesh(mesh, scalars="RGB", rgb=True)
-        else:
-            pl.add_mesh(mesh, color="lightgray")
+        add_object_mesh(pl, mesh_path, texture_path)
     for name, cams in cameras.items():
         if not len(cams):
             continue
