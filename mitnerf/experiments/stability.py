@@ -39,7 +39,7 @@ NERF = dict(width=32, depth=3, pos_L=8, dir_L=4)
 # label -> (field, field_args, train overrides, near plane override)
 METHODS = {
     "NeRF (defaults)": ("vanilla", NERF, {}, None),
-    "DS-NeRF (defaults)": ("vanilla", NERF, {"depth_weight": 0.05, "depth_sigma": 0.05}, None),
+    "DS-NeRF (defaults)": ("vanilla", NERF, {"depth_weight": 0.02, "depth_sigma": 0.05}, None),
     "grid (defaults)": ("grid", dict(resolution=129, initial_resolution=33, upsample_at=(50,), tv_weight=1e-4),
                         {"lr": 0.05, "lr_final": 0.005}, None),
     "NeRF, ReLU + bias 0, no warm-up": ("vanilla", {**NERF, "density_activation": "relu", "density_bias": 0.0},
