@@ -155,8 +155,9 @@ def test_video_cli_errors_say_what_to_do(tiny_checkpoint, bunny_small, tmp_path)
         video_cli(["--checkpoint", str(tmp_path / "nothing"), "--out", str(tmp_path / "v")])
     with pytest.raises(MitnerfError, match="--level must be"):
         video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--level", "high"])
-    # 20 steps leave densities near 0.3 everywhere: level 10 has no surface; the videos are still written
-    with pytest.raises(MitnerfError, match=r"videos are in .*no surface at density level 10.*span \["):
+    # 20 steps leave densities near 0.3 everywhere: the default level 3 has no surface; the videos are
+    # still written
+    with pytest.raises(MitnerfError, match=r"videos are in .*no surface at density level 3.*span \["):
         video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--frames", "2",
                    "--resolution", "8", "--mesh-resolution", "8"])
     assert (tmp_path / "v" / "color.gif").exists()

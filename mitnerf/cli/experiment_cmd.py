@@ -12,6 +12,8 @@ def register(sub) -> None:
     p.add_argument("name", choices=list(EXPERIMENTS))
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--quick", action="store_true", help="a small version (about 2 minutes)")
+    p.add_argument("--full", action="store_true",
+                   help="the complete design where an experiment has one (window-shop: the whole factorial)")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(run=run_experiment)
 
@@ -21,6 +23,16 @@ def run_experiment(args) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    report = get_experiment(args.name).run(out, quick=args.quick, seed=args.seed)
+    import inspect
+
+    from ..errors import MitnerfError
+
+    run = get_experiment(args.name).run
+    extra = {}
+    if args.full:
+        if "full" not in inspect.signature(run).parameters:
+            raise MitnerfError(f"experiment {args.name!r} has no --full design; drop --full")
+        extra["full"] = True
+    report = run(out, quick=args.quick, seed=args.seed, **extra)
     print(f"wrote {report}")
     return 0
