@@ -1,7 +1,6 @@
 """Datasets: round trips in every format, the NeRF2D convention, rig statistics, determinism."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest

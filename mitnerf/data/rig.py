@@ -69,7 +69,7 @@ class RigConfig:
         if self.resolution < 1:
             raise MitnerfError(f"resolution must be at least 1 pixel, got {self.resolution}; pass --resolution 100")
         if self.n_train < 1:
-            raise MitnerfError(f"zero training views requested; pass --views N with N >= 1")
+            raise MitnerfError("zero training views requested; pass --views N with N >= 1")
         if self.n_val < 0 or self.n_test < 0:
             raise MitnerfError("view counts cannot be negative")
         if not self.radius > 0:

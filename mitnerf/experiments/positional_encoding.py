@@ -16,6 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..data.rig import RigConfig, noise_preset
 from ..render.pipeline import RenderConfig
 from ..train.config import ModelConfig, TrainConfig
@@ -84,7 +86,7 @@ def run_pe(cfg: PEConfig, out: Path) -> Path:
 
     n = len(cfg.Ls)
     fig, axes = plt.subplots(1, n, figsize=(2.2 * n, 2.4))
-    for a, L in zip(np_atleast(axes), cfg.Ls):
+    for a, L in zip(np.atleast_1d(axes), cfg.Ls):
         if runs[L] is not None:
             density_panel(a, runs[L][0].backend, runs[L][0].bound, ds.meta.get("polygon"), f"L = {L}")
         else:
@@ -117,12 +119,6 @@ def run_pe(cfg: PEConfig, out: Path) -> Path:
         ("Density fields", "The field's density on the plane; the true outline in cyan.\n\n"
                            "![density per L](pe_density.png)\n\n![test views per L](pe_views.png)"),
     ])
-
-
-def np_atleast(axes):
-    import numpy as np
-
-    return np.atleast_1d(axes)
 
 
 def run(out: Path, quick: bool = False, seed: int = 0) -> Path:

@@ -14,8 +14,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-import numpy as np
-
 from .._io import cache_dir, digest
 from ..errors import MitnerfError
 from .objects3d import OBJECTS_3D, build_object
@@ -127,9 +125,3 @@ def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None
     raise MitnerfError(
         f"unknown scene {name!r}; choose one of {', '.join(scene_names())}, "
         "give a path to a Mitsuba XML file, or pass --polygon FILE")
-
-
-def polygon_points(info: SceneInfo) -> np.ndarray:
-    if info.polygon is None:
-        raise MitnerfError(f"scene {info.name!r} is not a 2D outline scene")
-    return info.polygon.points
