@@ -1,14 +1,16 @@
 """Speed against accuracy: the full default sweep, its Pareto fronts, and the 1/100 goal.
 
 Runs ``mitnerf sweep`` with the default grid (:mod:`mitnerf.experiments.sweep`: the
-vanilla field at widths 32/64/128 x 32/64/128 samples x drjit/torch x budgets
-2/6/20/60 s on bunny, square, tu and vase, plus the torch reference: the vanilla preset
-on torch for 600 s on bunny), prints the Pareto front of each scene, and says whether
-some configuration reaches the reference's test PSNR in at most 1/100 of its wall time.
+vanilla, grid and hash-grid families, each at a small size and at its preset, x 32/64/128
+samples x budgets 3/10/30 s, the presets on torch too, on bunny, square, tu and vase; plus
+the torch reference: the vanilla preset on torch for 600 s on bunny), prints the Pareto
+front of each scene, and says whether some configuration reaches the reference's test
+PSNR in at most 1/100 of its wall time.
 
-About 290 runs: roughly 3 hours on 2 cores (``--workers 1 --threads 2``, the default;
-``--workers 2 --threads 1`` is the alternative). Interrupt it at will: running it again
-resumes (finished rows are skipped). ``--quick`` is a one-minute smoke test.
+81 runs per scene, about 30 minutes per 2D scene on 2 cores (``--workers 1 --threads 2``,
+the default), plus 10 minutes for the reference; ``--scenes bunny`` is enough for the
+1/100 verdict. Interrupt it at will: running it again resumes (finished rows are
+skipped). ``--quick`` is a one-minute smoke test.
 
     python benchmarks/pareto.py [--out out/pareto] [--workers 1] [--threads 2] [--quick]
                                 [--executor dask --scheduler tcp://HOST:8786]
