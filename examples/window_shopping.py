@@ -33,7 +33,7 @@ re-renders it) and ``summary.json`` with every figure printed at the end::
     python examples/window_shopping.py --data tiny_nerf_data.npz --views 25
     python examples/window_shopping.py --field hashgrid --time-budget 120
 
-The mesh level defaults to 3, not the 10 of ``mitnerf video``: the grid field spreads a
+The mesh level defaults to 3 (as in ``mitnerf video``), not 10: the grid field spreads a
 surface over a few voxels and its density peaks near 10-30, so level 10 cuts holes into
 the vase. Chamfer distance of the grid vase (25 views, 60 s) against the true mesh, by
 level: auto (0.22) 0.042, 1: 0.024, 3: 0.013, 10: 0.059, 30: 0.53 (30 000 samples each).

@@ -32,6 +32,8 @@ def run_experiment(args) -> int:
     if args.full:
         if "full" not in inspect.signature(run).parameters:
             raise MitnerfError(f"experiment {args.name!r} has no --full design; drop --full")
+        if args.quick:
+            raise MitnerfError("--full and --quick exclude each other; drop one")
         extra["full"] = True
     report = run(out, quick=args.quick, seed=args.seed, **extra)
     print(f"wrote {report}")

@@ -93,6 +93,13 @@ class Dataset:
     def background(self) -> tuple[float, float, float]:
         return tuple(self.meta.get("background", (0.0, 0.0, 0.0) if self.dim == 2 else (1.0, 1.0, 1.0)))
 
+    def sparse(self, train_index=None) -> "Dataset":
+        """The training views ``train_index`` (all if None) and the test split, without the
+        validation split: what a few-view experiment trains on (no validation means the
+        trainer never stops a sparse run for looking collapsed; NaN still stops it)."""
+        train = self["train"] if train_index is None else self["train"].subset(train_index)
+        return Dataset({"train": train, "test": self["test"]}, self.near, self.far, dict(self.meta))
+
 
 def bounds_from_cameras(cams: list[Cameras], radius: float, margin: float = 0.1) -> tuple[float, float]:
     """Near/far for an object inside a sphere of ``radius`` at the origin."""

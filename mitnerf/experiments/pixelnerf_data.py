@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..data.cameras import Cameras
-from ..data.dataset import Dataset, Split
+from ..data.dataset import Dataset
 from ..data.rig import RigConfig, noise_preset
 from ..scenes.polygon import Polygon
 from ..scenes.registry import SceneInfo, scene_2d
@@ -84,6 +84,8 @@ class SceneViews:
     far: float
     features: np.ndarray | None = None
     """Frozen-encoder features ``[F, V*H]``, filled in by the trainer when it needs them."""
+    features_key: tuple | None = None
+    """The encoder that made ``features`` (:attr:`PixelNeRFConfig.encoder_key`)."""
 
     @property
     def n_views(self) -> int:
@@ -125,7 +127,3 @@ def pick_views(cameras: Cameras, k: int) -> np.ndarray:
     return np.array(out)
 
 
-def with_train_subset(dataset: Dataset, index: np.ndarray) -> Dataset:
-    """The dataset with only some training views (what a sparse-view NeRF sees)."""
-    splits: dict[str, Split] = {**dataset.splits, "train": dataset["train"].subset(index)}
-    return Dataset(splits, dataset.near, dataset.far, dict(dataset.meta))

@@ -27,8 +27,8 @@ dependence on/off and hierarchical sampling on/off: "PSNR stays around 23-25 dB 
   base configuration (L = 10, N_c = 64, view dependence on, hierarchical on), each
   factor changed alone at ``ofat_views`` (5: where the report saw the collapse); plus the
   base configuration at every number of views; plus our fast model (the dense grid at
-  its preset, :func:`mitnerf.train.presets.preset`) at every number of views and both
-  budgets; plus a probe with the original NeRF's ReLU density (base and N_c = 128 at
+  its preset, :func:`mitnerf.train.presets.preset`, its coarse-to-fine schedule compressed
+  to the fixed-iteration budget) at every number of views and both budgets; plus a probe with the original NeRF's ReLU density (base and N_c = 128 at
   ``probe_views``, fixed iterations), since our NeRF defaults to softplus. That is
   2 x (4 + 4) x 2 = 32 NeRF runs, 16 grid runs, 4 probes.
 * ``full=True``: the whole factorial, 4 x 2 x 2 x 2 x 2 = 64 configurations x 2 budgets
@@ -166,14 +166,6 @@ def photos(obj: str, cfg: WindowShopConfig):
     return cached_dataset(obj, rig)
 
 
-def with_views(dataset, n: int):
-    """The first ``n`` training photos and the test views (no validation split)."""
-    from ..data.dataset import Dataset
-
-    return Dataset({"train": dataset["train"].subset(slice(0, n)), "test": dataset["test"]}, dataset.near,
-                   dataset.far, dict(dataset.meta))
-
-
 def execute(out: Path, cfg: WindowShopConfig) -> Path:
     """Run the design of ``cfg`` and write every output into ``out``; returns ``report.md``."""
     from .window_shop_report import write_outputs
@@ -189,7 +181,7 @@ def execute(out: Path, cfg: WindowShopConfig) -> Path:
             bar.set_postfix_str(f"{spec.object} {spec.views}v {spec.name} [{spec.budget}]", refresh=True)
             if spec.object not in data:
                 data = {spec.object: photos(spec.object, cfg)}                  # one object in memory at a time
-            photos_n = with_views(data[spec.object], spec.views)
+            photos_n = data[spec.object].sparse(slice(0, spec.views))
             if cfg.compile_first and spec.model_key() not in compiled:
                 warm_up(spec, photos_n, cfg)
                 compiled.add(spec.model_key())
@@ -205,7 +197,8 @@ def execute(out: Path, cfg: WindowShopConfig) -> Path:
 
 def run(out: Path, quick: bool = False, seed: int = 0, full: bool = False) -> Path:
     """The experiment (``python -m mitnerf experiment window-shop --out DIR [--quick]``).
-    ``full=True`` runs the whole factorial (hours); ``quick`` wins over ``full``."""
+    ``full=True`` runs the whole factorial (hours); ``quick`` wins over ``full`` (the CLI
+    refuses both at once)."""
     cfg = quick_config(seed) if quick else WindowShopConfig(seed=seed, full=full)
     return execute(Path(out), cfg)
 

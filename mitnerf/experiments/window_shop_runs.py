@@ -101,6 +101,10 @@ def model_for(spec: Spec, cfg, background) -> tuple:
         tc = TrainConfig(batch_rays=cfg.batch_rays, lr=cfg.lr, lr_final=cfg.lr_final)
     else:
         mc, tc = preset(spec.field, 3)
+        if spec.budget == "iters" and mc.field_args.get("upsample_at"):
+            # the preset's coarse-to-fine schedule, compressed to the run's length
+            mc.field_args["upsample_at"] = tuple(max(1, round(s * cfg.iters / tc.iters))
+                                                 for s in mc.field_args["upsample_at"])
     mc.render.background = tuple(background)
     tc.iters = cfg.iters if spec.budget == "iters" else 1_000_000      # under a time budget the clock decides
     tc.time_budget = cfg.time_budget if spec.budget == "time" else None
@@ -110,23 +114,18 @@ def model_for(spec: Spec, cfg, background) -> tuple:
     return mc, tc
 
 
-def train_only(dataset: Dataset) -> Dataset:
-    """The dataset without its validation split (so the trainer never stops a run for collapse)."""
-    return Dataset({"train": dataset["train"], "test": dataset["test"]}, dataset.near, dataset.far,
-                   dict(dataset.meta))
-
-
 def warm_up(spec: Spec, dataset: Dataset, cfg, steps: int = 3) -> float:
     """Compile the kernels of ``spec``'s model with a throw-away run of ``steps`` steps, so the
     timed run that follows pays for tracing only (Dr.Jit reuses compiled kernels by their
-    content). Returns the seconds it took."""
+    content). A grid's later resolutions (coarse-to-fine) still compile inside the timed
+    run. Returns the seconds it took."""
     import time
 
     mc, tc = model_for(spec, cfg, dataset.background)
     tc.iters, tc.time_budget = steps, None
     t0 = time.perf_counter()
     try:
-        run = fit(train_only(dataset), mc, tc)
+        run = fit(dataset.sparse(), mc, tc)
         o, d = dataset["test"].cameras.subset(slice(0, 1)).rays()
         run.backend.render(o.reshape(-1, 3).astype(np.float32), d.reshape(-1, 3).astype(np.float32))
     except TrainingFailed:
@@ -148,7 +147,7 @@ def train_one(spec: Spec, dataset: Dataset, cfg) -> tuple[dict, dict | None]:
     row = {**dataclasses.asdict(spec), "config": spec.name, "n_fine": mc.render.n_fine if nerf else "",
            "width": cfg.width if nerf else "", "batch_rays": tc.batch_rays, "seed": cfg.seed,
            "psnr_empty": empty_psnr(dataset, dataset.background)}
-    data = train_only(dataset)
+    data = dataset.sparse()
     try:
         run = fit(data, mc, tc)
     except TrainingFailed as exc:

@@ -22,7 +22,8 @@ def setup_text(rows: list[dict], cfg, wall: float, load: tuple | None = None) ->
               f"each of {', '.join(cfg.factors)} changed alone at {', '.join(map(str, cfg.ofat_views))} views, "
               f"plus the base at every number of views")
     compile_note = ("A 3-step throw-away run compiles each model's kernels first, so train time counts tracing "
-                    "but not compiling." if cfg.compile_first else "Train time includes compiling the kernels.")
+                    "but not compiling (except the dense grid's kernels for its upsampled resolutions, compiled "
+                    "when it reaches them)." if cfg.compile_first else "Train time includes compiling the kernels.")
     text = f"""
 - Objects: {', '.join(cfg.objects)} (unit sphere, white background). Training photos: the first N of
   {max(cfg.pool_views, max(cfg.views))} random, slightly noisy views on the upper hemisphere (so fewer views are a
