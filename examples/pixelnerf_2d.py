@@ -2,7 +2,7 @@
 
 Trains a 2D pixelNeRF (frozen and trained 1D CNN encoders) across procedural outlines,
 fits a NeRF per scene and view count, and writes under ``--out``: ``results.csv``,
-``training.csv``, ``psnr_vs_views.png``, ``strips_<scene>.png``, ``density_<scene>.png``
+``training.csv``, ``training.png``, ``psnr_vs_views.png``, ``strips_<scene>.png``, ``density_<scene>.png``
 and ``report.md``. The full run takes at most ~15 minutes on 2 cores, ``--quick`` ~2.
 
     python examples/pixelnerf_2d.py [--quick] [--seed S] [--field F] [--out DIR]

@@ -129,6 +129,28 @@ def test_the_field_answers_for_any_number_of_views():
         assert all(0 < c.numpy().min() and c.numpy().max() < 1 for c in rgb)
 
 
+@pytest.mark.parametrize("pool", ["mean", "mean_var"])
+def test_pooling_over_views_ignores_their_order_and_duplicates(pool):
+    # The per-view branch runs on (sample, view) pairs and is pooled per sample: a context
+    # [B, A] must give the answer of [A, B], and [A, A] the answer of [A] (mean of equal
+    # features is the feature; their variance is 0, as for one view).
+    cams = two_cameras(H=10)
+    fld = PixelNeRFField(PixelNeRFConfig(channels=4, dilations=(1, 2), width=16, pool=pool))
+    params = fld.init_params(0)
+    x = [Float([0.0, 0.5, -0.3, 1.0]), Float([0.0, 0.2, 0.4, -0.7])]
+    d = [Float([1.0, 0.0, 0.6, -0.8]), Float([0.0, 1.0, 0.8, 0.6])]
+    imgs = np.random.default_rng(3).uniform(0, 1, (2, 10, 3))
+
+    def answer(order):
+        ctx = make_context(imgs[order], cams.poses[order], cams.focal)
+        sigma, rgb = fld.with_context(ctx).query(params, x, d)
+        return np.stack([sigma.numpy()] + [c.numpy() for c in rgb])
+
+    np.testing.assert_allclose(answer([1, 0]), answer([0, 1]), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(answer([0, 0]), answer([0]), rtol=1e-5, atol=1e-6)
+    assert np.abs(answer([1]) - answer([0])).max() > 1e-4     # the views do matter
+
+
 def test_quick_experiment_writes_its_files(tmp_path):
     from mitnerf.experiments.common import read_csv
     from mitnerf.experiments.pixelnerf import run, tiny_config

@@ -22,11 +22,12 @@ def depth_panel(ax, depth: np.ndarray, opacity: np.ndarray | None, near: float, 
     ax.set_xticks([]), ax.set_yticks([])
 
 
-def density_panel(ax, backend, bound: float, outline=None, title: str = "", res: int = 160) -> None:
-    """The final field's density over ``[-bound, bound]^2`` (log scale), the true outline on top."""
+def density_panel(ax, source, bound: float, outline=None, title: str = "", res: int = 160) -> None:
+    """Density over ``[-bound, bound]^2`` (log scale), the true outline on top. ``source`` is
+    a backend (its final field is sampled on a ``res x res`` grid) or that grid already."""
     from ..viz.training import density_grid
 
-    sigma = density_grid(backend, bound, 2, res)
+    sigma = source if isinstance(source, np.ndarray) else density_grid(source, bound, 2, res)
     ax.imshow(np.log10(1e-2 + np.maximum(sigma, 0)), cmap="magma", extent=(-bound, bound, -bound, bound),
               vmin=-2, vmax=2.5)
     if outline is not None:
@@ -36,9 +37,10 @@ def density_panel(ax, backend, bound: float, outline=None, title: str = "", res:
     ax.set_xticks([]), ax.set_yticks([])
 
 
-def save(fig, path) -> None:
+def save(fig, path, dpi: int = 110) -> None:
+    """Lay out, write and close a figure."""
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=dpi)
     import matplotlib.pyplot as plt
 
     plt.close(fig)

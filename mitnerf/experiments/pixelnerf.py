@@ -20,7 +20,7 @@ per-scene NeRF should catch up. Does that hold in 2D, on CPU-sized budgets?
   ``n_unseen`` outlines it never saw (same ``k`` views rule).
 
 Outputs: ``results.csv`` (one row per method, scene, k), ``training.csv`` (pixelNeRF
-loss curves), ``psnr_vs_views.png``, ``strips_<scene>.png`` (test views of each method
+loss curves) and ``training.png`` (the curves drawn), ``psnr_vs_views.png``, ``strips_<scene>.png`` (test views of each method
 beside ground truth), ``density_<scene>.png`` and ``report.md``.
 """
 
@@ -35,8 +35,7 @@ import numpy as np
 
 from ..fields.pixelnerf import PixelNeRFConfig
 from .common import cached_dataset, markdown_table, write_csv, write_report
-from .pixelnerf_data import (outline_dataset, outline_rig, pick_views, scene_views,
-                             with_train_subset)
+from .pixelnerf_data import outline_dataset, outline_rig, pick_views, scene_views
 from .pixelnerf_train import PixelRun, PixelTrainConfig, context_of, density_grid, render_rays, train
 
 
@@ -208,7 +207,7 @@ def run(out: Path, quick: bool = False, seed: int = 0, config: PixelNeRFExperime
     nerf_label = f"NeRF ({cfg.field})"
     for name, ds in evals.items():
         for k in cfg.ks:
-            sub = with_train_subset(ds, picks[name][k])
+            sub = ds.sparse(picks[name][k])
             nrun, m = fit_nerf(cfg, sub, seed)
             rows.append({"method": nerf_label, "scene": name, "group": "eval", "k": k,
                          **{key: v for key, v in m.items() if key != "renders"}})
@@ -220,12 +219,11 @@ def run(out: Path, quick: bool = False, seed: int = 0, config: PixelNeRFExperime
     write_csv(out / "results.csv", rows)
     write_csv(out / "training.csv", hist_rows)
     methods = [f"pixelNeRF ({e})" for e in cfg.encoders] + [nerf_label]
-    figs = [plot_psnr(rows, methods, cfg.ks, out / "psnr_vs_views.png"), plot_training(hist_rows, out / "training.png")]
+    plot_psnr(rows, methods, cfg.ks, out / "psnr_vs_views.png")
+    plot_training(hist_rows, out / "training.png")
     for name, ds in evals.items():
-        figs.append(save_strips(ds["test"].target(ds.background), renders, name, cfg.ks, methods,
-                                out / f"strips_{name}.png"))
-        figs.append(save_densities(densities, name, cfg.ks, methods, ds.meta.get("polygon"), bound,
-                                   out / f"density_{name}.png"))
+        save_strips(ds["test"].target(ds.background), renders, name, cfg.ks, methods, out / f"strips_{name}.png")
+        save_densities(densities, name, cfg.ks, methods, ds.meta.get("polygon"), bound, out / f"density_{name}.png")
     return _report(out, cfg, rows, methods, runs, total, seed, quick)
 
 
@@ -246,7 +244,10 @@ def _report(out: Path, cfg, rows, methods, runs, total, seed, quick) -> Path:
             line = {"scene": name, "pixelNeRF - NeRF": m}
             for k in cfg.ks:
                 p = [r["psnr"] for r in ev if r["scene"] == name and r["method"] == m and r["k"] == k]
-                line[f"k={k}"] = f"{p[0] - nerf[k]:+.2f}" if p and k in nerf and np.isfinite(nerf[k]) else ""
+                if p and k in nerf:
+                    line[f"k={k}"] = f"{p[0] - nerf[k]:+.2f}" if np.isfinite(nerf[k]) else "NeRF failed"
+                else:
+                    line[f"k={k}"] = ""
             diff.append(line)
     gen = []
     for m in methods[:len(cfg.encoders)]:
@@ -268,7 +269,8 @@ def _report(out: Path, cfg, rows, methods, runs, total, seed, quick) -> Path:
                           f"{float(r.get('train_time', 0)):.0f} s" for r in ev if r["method"] == methods[-1])
     verdict = []
     for name in cfg.eval_scenes:
-        ahead = [k for k in cfg.ks if any(d["scene"] == name and d[f"k={k}"].startswith("+") for d in diff)]
+        cells = {k: [d[f"k={k}"] for d in diff if d["scene"] == name] for k in cfg.ks}
+        ahead = [k for k in cfg.ks if any(c.startswith("+") and float(c) > 0 or c == "NeRF failed" for c in cells[k])]
         behind = [k for k in cfg.ks if k not in ahead]
         ks_text = lambda ks: ", ".join(map(str, ks)) or "none"
         verdict.append(f"* {name}: a pixelNeRF variant is ahead of NeRF with k = {ks_text(ahead)}; "

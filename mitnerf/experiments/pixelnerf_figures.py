@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..viz.strips import views_strip
+from .figures import density_panel, save
 
 
 def _plt():
@@ -39,9 +40,7 @@ def plot_psnr(rows: list[dict], methods: list[str], ks, path: Path) -> Path:
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("test PSNR [dB]")
     axes[0][0].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
     return path
 
 
@@ -64,9 +63,7 @@ def save_strips(target: np.ndarray, renders: dict, scene: str, ks, methods: list
         ax.set_yticklabels(labels, fontsize=7)
         ax.set_xticks([])
         ax.set_title(f"{scene}, k = {k} input views", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, dpi=100)
     return path
 
 
@@ -78,21 +75,12 @@ def save_densities(densities: dict, scene: str, ks, methods: list[str], outline,
         for j, m in enumerate(methods):
             ax = axes[i, j]
             sigma = densities.get((scene, k, m))
-            if sigma is not None:
-                ax.imshow(np.log10(1e-2 + np.maximum(sigma, 0)), cmap="magma", vmin=-2, vmax=2,
-                          extent=(-bound, bound, -bound, bound))
-            if outline is not None:
-                pts = np.asarray(outline)
-                ax.plot(pts[:, 0], pts[:, 1], color="cyan", lw=0.6, alpha=0.8)
-            ax.set_xticks([]), ax.set_yticks([])
-            if i == 0:
-                ax.set_title(m, fontsize=8)
+            density_panel(ax, sigma if sigma is not None else np.zeros((2, 2)), bound, outline,
+                          m if i == 0 else "")
             if j == 0:
                 ax.set_ylabel(f"k = {k}")
     fig.suptitle(f"{scene}: density", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save(fig, path, dpi=90)
     return path
 
 
@@ -111,7 +99,5 @@ def plot_training(hist_rows: list[dict], path: Path) -> Path:
     ax.set_ylabel("MSE (100-step mean)")
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
     return path

@@ -61,8 +61,10 @@ class PixelTrainConfig:
     """Show a progress bar."""
 
     def lr_at(self, progress: float, step: int) -> float:
-        lr = self.lr * (self.lr_final / self.lr) ** min(max(progress, 0.0), 1.0)
-        return lr * (0.1 + 0.9 * step / self.warmup) if step < self.warmup else lr
+        """Learning rate after ``progress`` in [0, 1] of the run (``step`` for the warm-up)."""
+        from ..train.config import lr_schedule
+
+        return lr_schedule(self.lr, self.lr_final, self.warmup, progress, step)
 
 
 @dataclass
@@ -80,7 +82,8 @@ class PixelRun:
 def context_of(fld: PixelNeRFField, scene: SceneViews, views) -> Context:
     """The context made of some views of ``scene`` (frozen features taken from the scene)."""
     views = np.asarray(views)
-    feats = scene.feature_columns(views) if (fld.frozen is not None and scene.features is not None) else None
+    cached = fld.frozen is not None and scene.features_key == fld.cfg.encoder_key
+    feats = scene.feature_columns(views) if cached else None
     return make_context(scene.images[views], scene.poses[views], scene.focal, feats)
 
 
@@ -89,8 +92,8 @@ def precompute_features(fld: PixelNeRFField, scenes: list[SceneViews]) -> None:
     if fld.frozen is None:
         return
     for s in scenes:
-        if s.features is None:
-            s.features = fld.features_numpy(s.images)
+        if s.features_key != fld.cfg.encoder_key:
+            s.features, s.features_key = fld.features_numpy(s.images), fld.cfg.encoder_key
 
 
 def train(field_cfg: PixelNeRFConfig, scenes: list[SceneViews], cfg: PixelTrainConfig) -> PixelRun:
@@ -175,7 +178,7 @@ def render_rays(run: PixelRun, context: Context, origins: np.ndarray, directions
     fld = run.field.with_context(context)
     parts = []
     with dr.suspend_grad():
-        if fld.frozen is None:          # encode the context once, not per chunk
+        if context.features is None:    # encode the context once, not per chunk
             fld.context = Context(context.images, context.cams, context.n_views, context.height, context.focal,
                                   fld.features(run.params, context))
         for s in range(0, len(origins), chunk):
@@ -190,12 +193,15 @@ def render_rays(run: PixelRun, context: Context, origins: np.ndarray, directions
 
 def density_grid(run: PixelRun, context: Context, bound: float, res: int = 128) -> np.ndarray:
     """Density on a ``res x res`` grid over ``[-bound, bound]^2`` (row 0 is +y)."""
-    u = np.linspace(-bound, bound, res, dtype=np.float32)
-    X, Y = np.meshgrid(u, u[::-1])
-    pts = np.stack([X.ravel(), Y.ravel()], 1)
+    from ..viz.training import density_grid as grid_of
+
     fld = run.field.with_context(context)
-    out = []
-    with dr.suspend_grad():
-        for s in range(0, len(pts), 4096):
-            out.append(np.asarray(fld.density(run.params, cols(pts[s:s + 4096]))))
-    return np.concatenate(out).reshape(res, res)
+
+    class Densities:                     # what viz.training.density_grid asks of a backend
+        @staticmethod
+        def density(pts: np.ndarray) -> np.ndarray:
+            with dr.suspend_grad():
+                return np.concatenate([np.asarray(fld.density(run.params, cols(pts[s:s + 4096])))
+                                       for s in range(0, len(pts), 4096)])
+
+    return grid_of(Densities, bound, 2, res)

@@ -36,9 +36,11 @@ COOPVEC_MAX_WIDTH = 16
 """Widest layer for which ``mode='auto'`` uses cooperative vectors. Measured with
 ``benchmarks/coopvec_vs_tensor.py`` (2 cores, depth 4, 64 samples x 1024 rays, ms per
 training step, coopvec / tensor), two runs: width 8: 22.5 / 26.7 and 24.9 / 54.0;
-16: 53.9 / 37.5 and 61.2 / 70.3; 32: 163 / 58.5 and 165 / 59.1; 64: 607 / 115 and
-654 / 115; 128: 1651 / 275 and 1492 / 263. At 16 the two modes are within the noise
-and the cooperative vectors keep the integral's memory O(rays); from 24 on GEMMs win."""
+16: 53.9 / 37.5 and 61.2 / 70.3; 24: 94.0 / 47.4 (second run); 32: 163 / 58.5 and
+165 / 59.1; 64: 607 / 115 and 654 / 115; 128: 1651 / 275 and 1492 / 263. Width 16 is a
+toss-up (CoopVec 44 % slower in one run, 13 % faster in the other); it stays on
+cooperative vectors because they keep the integral's memory O(rays). From 24 on GEMMs
+win by 2x and more."""
 
 
 @dataclass

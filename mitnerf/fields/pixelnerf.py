@@ -101,11 +101,18 @@ class PixelNeRFConfig:
         if self.kernel % 2 != 1:
             raise MitnerfError(f"the convolution kernel must be odd (same-size output), got {self.kernel}")
         if self.density_activation not in DENSITY_ACTIVATIONS:
-            raise MitnerfError(f"density_activation must be one of {DENSITY_ACTIVATIONS}")
+            raise MitnerfError(f"density_activation must be one of {DENSITY_ACTIVATIONS}, "
+                               f"got {self.density_activation!r}")
         if self.pool not in POOLS:
             raise MitnerfError(f"pool must be one of {POOLS}, got {self.pool!r}")
         if self.view_layers < 1 or self.head_layers < 0:
-            raise MitnerfError("pixelNeRF needs view_layers >= 1 and head_layers >= 0")
+            raise MitnerfError(f"pixelNeRF needs view_layers >= 1 and head_layers >= 0, "
+                               f"got view_layers={self.view_layers}, head_layers={self.head_layers}")
+
+    @property
+    def encoder_key(self) -> tuple:
+        """What the frozen encoder's features depend on (cached features are keyed by it)."""
+        return (self.encoder_seed, self.channels, self.dilations, self.kernel, self.include_rgb)
 
     @property
     def feature_size(self) -> int:

@@ -8,6 +8,15 @@ from dataclasses import dataclass
 from ..render.pipeline import RenderConfig
 
 
+def lr_schedule(lr: float, lr_final: float, warmup: int, progress: float, step: int) -> float:
+    """Exponential decay from ``lr`` to ``lr_final`` over ``progress`` in [0, 1], times a linear
+    warm-up from ``lr / 10`` over the first ``warmup`` steps."""
+    lr = lr * (lr_final / lr) ** min(max(progress, 0.0), 1.0)
+    if step < warmup:
+        lr *= 0.1 + 0.9 * step / warmup
+    return lr
+
+
 @dataclass
 class ModelConfig:
     """Which field, with which arguments, rendered how."""
@@ -80,7 +89,4 @@ class TrainConfig:
 
     def lr_at(self, progress: float, step: int) -> float:
         """Learning rate after ``progress`` in [0, 1] of the run (``step`` for the warm-up)."""
-        lr = self.lr * (self.lr_final / self.lr) ** min(max(progress, 0.0), 1.0)
-        if step < self.warmup:
-            lr *= 0.1 + 0.9 * step / self.warmup
-        return lr
+        return lr_schedule(self.lr, self.lr_final, self.warmup, progress, step)
