@@ -7,9 +7,9 @@ the torch reference: the vanilla preset on torch for 600 s on bunny), prints the
 front of each scene, and says whether some configuration reaches the reference's test
 PSNR in at most 1/100 of its wall time.
 
-81 runs per scene, about 30 minutes per 2D scene on 2 cores (``--workers 1 --threads 2``,
-the default), plus 10 minutes for the reference; ``--scenes bunny`` is enough for the
-1/100 verdict. Interrupt it at will: running it again resumes (finished rows are
+81 runs per scene, about 20 minutes per 2D scene on 2 cores (``--workers 1 --threads 2``,
+the default), plus 10 minutes for the reference; ``--scenes bunny`` (30 minutes in all)
+is enough for the 1/100 verdict. Interrupt it at will: running it again resumes (finished rows are
 skipped). ``--quick`` is a one-minute smoke test.
 
     python benchmarks/pareto.py [--out out/pareto] [--workers 1] [--threads 2] [--quick]

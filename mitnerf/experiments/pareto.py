@@ -94,6 +94,7 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     scenes = list(dict.fromkeys(r["scene"] for r in rows)) or ["(no runs)"]
@@ -131,11 +132,13 @@ def plot_pareto(rows: list[dict], path: Path) -> Path:
     for ax in list(axes.flat)[len(scenes):]:
         ax.axis("off")
     handles = [Line2D([], [], ls="", marker=marker[f], color="grey", label=f) for f in families]
-    handles += [Line2D([], [], ls="", marker="o", color=c, label=b) for b, c in COLOURS.items()]
+    handles += [Patch(color=c, label=b) for b, c in COLOURS.items()]
     handles += [Line2D([], [], ls="", marker="o", color="white", mec="black", label="torch reference"),
                 Line2D([], [], ls="--", color="black", marker="o", mfc="none", label="Pareto front")]
-    fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    ncol = min(len(handles), 4)                  # wraps instead of running off a one-panel figure
+    rows_of_legend = math.ceil(len(handles) / ncol)
+    fig.legend(handles=handles, loc="lower center", ncol=ncol, frameon=False, fontsize=9)
+    fig.tight_layout(rect=(0, 0.05 * rows_of_legend / nrows, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
