@@ -20,8 +20,9 @@ per-scene NeRF should catch up. Does that hold in 2D, on CPU-sized budgets?
   ``n_unseen`` outlines it never saw (same ``k`` views rule).
 
 Outputs: ``results.csv`` (one row per method, scene, k), ``training.csv`` (pixelNeRF
-loss curves) and ``training.png`` (the curves drawn), ``psnr_vs_views.png``, ``strips_<scene>.png`` (test views of each method
-beside ground truth), ``density_<scene>.png`` and ``report.md``.
+loss curves) and ``training.png`` (the curves drawn), ``psnr_vs_views.png``,
+``strips_<scene>.png`` (test views of each method beside ground truth),
+``density_<scene>.png`` and ``report.md``.
 """
 
 from __future__ import annotations

@@ -28,8 +28,9 @@ dependence on/off and hierarchical sampling on/off: "PSNR stays around 23-25 dB 
   factor changed alone at ``ofat_views`` (5: where the report saw the collapse); plus the
   base configuration at every number of views; plus our fast model (the dense grid at
   its preset, :func:`mitnerf.train.presets.preset`, its coarse-to-fine schedule compressed
-  to the fixed-iteration budget) at every number of views and both budgets; plus a probe with the original NeRF's ReLU density (base and N_c = 128 at
-  ``probe_views``, fixed iterations), since our NeRF defaults to softplus. That is
+  to the fixed-iteration budget) at every number of views and both budgets; plus a probe
+  with the original NeRF's ReLU density (base and N_c = 128 at ``probe_views``, fixed
+  iterations), since our NeRF defaults to softplus. That is
   2 x (4 + 4) x 2 = 32 NeRF runs, 16 grid runs, 4 probes.
 * ``full=True``: the whole factorial, 4 x 2 x 2 x 2 x 2 = 64 configurations x 2 budgets
   x 2 objects = 256 NeRF trainings (plus grid and probes): hours on a CPU.
