@@ -100,11 +100,7 @@ def model_for(spec: Spec, cfg, background) -> tuple:
                          RenderConfig(n_coarse=spec.n_coarse, n_fine=n_fine))
         tc = TrainConfig(batch_rays=cfg.batch_rays, lr=cfg.lr, lr_final=cfg.lr_final)
     else:
-        mc, tc = preset(spec.field, 3)
-        if spec.budget == "iters" and mc.field_args.get("upsample_at"):
-            # the preset's coarse-to-fine schedule, compressed to the run's length
-            mc.field_args["upsample_at"] = tuple(max(1, round(s * cfg.iters / tc.iters))
-                                                 for s in mc.field_args["upsample_at"])
+        mc, tc = preset(spec.field, 3)   # run for the budget: 200 steps end before its first upsampling
     mc.render.background = tuple(background)
     tc.iters = cfg.iters if spec.budget == "iters" else 1_000_000      # under a time budget the clock decides
     tc.time_budget = cfg.time_budget if spec.budget == "time" else None

@@ -33,7 +33,9 @@ def setup_text(rows: list[dict], cfg, wall: float, load: tuple | None = None) ->
   cores), softplus density (ours; the original NeRF uses ReLU), direction encoding L = {cfg.dir_L},
   {cfg.batch_rays} rays per step, Adam {cfg.lr:g} -> {cfg.lr_final:g}. Hierarchical: N_f = N_c x {cfg.fine_ratio:g}
   importance samples with a separate fine field.
-- Design: {design}. Grid (our fast model, its 3D preset) at every number of views: {'yes' if cfg.grid else 'no'}.
+- Design: {design}. Grid (our fast model, its 3D preset, which
+  upsamples 33^3 -> 65^3 -> 129^3 at steps 200 and 600: the fixed-iteration runs stay at 33^3) at every number of
+  views: {'yes' if cfg.grid else 'no'}.
   ReLU-density probes (the original NeRF's activation): N_c in {{{', '.join(map(str, cfg.probe_n_coarse))}}} at
   {', '.join(map(str, cfg.probe_views)) or 'no'} views.
 - Budgets: fixed iterations = {cfg.iters} steps; fixed time = {cfg.time_budget:g} s of training (the learning-rate
