@@ -14,7 +14,7 @@ demo: setup
 test: setup-test
 	$(PY) -m pytest -q tests
 
-# every benchmark once; the full speed-vs-accuracy sweep takes hours: `$(PY) benchmarks/pareto.py`
+# every benchmark once; the full speed-vs-accuracy sweep takes ~2 h (`$(PY) benchmarks/pareto.py`; bunny alone 30 min)
 bench: setup-test
 	for b in benchmarks/[!_]*.py; do [ $$b = benchmarks/pareto.py ] && continue; $(PY) $$b || exit 1; done
 	$(PY) benchmarks/pareto.py --quick
