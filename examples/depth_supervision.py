@@ -3,20 +3,12 @@
     python examples/depth_supervision.py [--quick] [--out out/experiments/depth] [--seed 0]
 
 Writes CSV files, PNG figures and report.md (see `mitnerf.experiments`); the default
-size takes up to 15 minutes on 2 cores, `--quick` about 1-2 minutes.
+size takes 8 minutes on 2 cores, `--quick` about 1-2 minutes.
 """
 
-from __future__ import annotations
-
-import argparse
 import sys
 
-from mitnerf.cli import main as cli
+from mitnerf.cli.experiment_cmd import example_main
 
 if __name__ == "__main__":
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--out", default="out/experiments/depth")
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args()
-    sys.exit(cli(["experiment", "depth", "--out", a.out, "--seed", str(a.seed)] + (["--quick"] if a.quick else [])))
+    sys.exit(example_main("depth", __doc__))

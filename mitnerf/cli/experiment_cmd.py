@@ -38,3 +38,18 @@ def run_experiment(args) -> int:
     report = run(out, quick=args.quick, seed=args.seed, **extra)
     print(f"wrote {report}")
     return 0
+
+
+def example_main(name: str, doc: str, argv=None) -> int:
+    """What an ``examples/`` script of an experiment runs: ``mitnerf experiment <name>``
+    with ``--out`` defaulting to ``out/experiments/<name>``."""
+    import argparse
+
+    from . import main as cli
+
+    p = argparse.ArgumentParser(description=doc.splitlines()[0])
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--out", default=f"out/experiments/{name}")
+    p.add_argument("--seed", type=int, default=0)
+    a = p.parse_args(argv)
+    return cli(["experiment", name, "--out", a.out, "--seed", str(a.seed)] + (["--quick"] if a.quick else []))
