@@ -1,7 +1,7 @@
-# `make demo`: set everything up and run the main job.  `make test`: set up and run the suite.
+# `make demo`: set up the core (no torch) and fit the bunny.  `make test`: set up with the test extras, run the suite.
 PY := .venv/bin/python
 
-.PHONY: setup setup-test demo test bench clean
+.PHONY: setup setup-test demo test bench reproduce clean
 setup:
 	./scripts/setup.sh
 
@@ -14,10 +14,15 @@ demo: setup
 test: setup-test
 	$(PY) -m pytest -q tests
 
-# every benchmark once; the full speed-vs-accuracy sweep takes ~2 h (`$(PY) benchmarks/pareto.py`; bunny alone 30 min)
+# every benchmark once, each writing its figures into results.json; then the documents made from it
 bench: setup-test
-	for b in benchmarks/[!_]*.py; do [ $$b = benchmarks/pareto.py ] && continue; $(PY) $$b || exit 1; done
-	$(PY) benchmarks/pareto.py --quick
+	for b in benchmarks/[!_]*.py; do case $$b in benchmarks/report.py) continue;; esac; $(PY) $$b || exit 1; done
+	$(PY) benchmarks/report.py
+
+# the source reports' experiments at full size, then REPRODUCTION.md
+reproduce: setup-test
+	$(PY) -m mitnerf experiment all --out out/reproduce
+	$(PY) benchmarks/report.py
 
 clean:
 	rm -rf .venv build *.egg-info .pytest_cache

@@ -8,33 +8,32 @@ import time
 import drjit as dr
 import numpy as np
 
-import mitnerf  # noqa: F401
+import mitnerf
+from mitnerf.data.cache import cached_dataset
+from mitnerf.data.rig import RigConfig, noise_preset
+from mitnerf.train.engines import make_backend
+from mitnerf.train.config import TrainConfig
+
+mitnerf.set_variant()
 
 
 def bunny(n_train: int = 50):
-    from mitnerf.data.generate import make_dataset
-    from mitnerf.data.rig import RigConfig, noise_preset
-    from mitnerf.scenes.registry import get_scene
-
-    return make_dataset(get_scene("bunny"), RigConfig(dim=2, n_train=n_train, n_val=4, n_test=8,
-                                                      **noise_preset(1.0)), progress=False)
+    """The NeRF2D-protocol bunny (cached): ``n_train`` noisy views of 100 px, 4 val, 8 test."""
+    return cached_dataset("bunny", RigConfig(dim=2, n_train=n_train, n_val=4, n_test=8, **noise_preset(1.0)))
 
 
 def backend(name, model_cfg, dataset, batch=1024, threads=2):
-    from mitnerf.train.config import TrainConfig
-    from mitnerf.train.rays import rays_of
-    from mitnerf.train.trainer import make_backend, scene_bound
-
+    """A backend of engine ``name`` holding ``dataset``'s training rays."""
     tc = TrainConfig(batch_rays=batch, threads=threads, progress=False)
-    be = make_backend(name, model_cfg, dataset.dim, scene_bound(dataset), dataset.near, dataset.far, tc)
-    be.set_data(rays_of(dataset["train"], model_cfg.render.background))
+    be = make_backend(name, model_cfg, tc, dataset.dim, dataset.bound, dataset.near, dataset.far)
+    be.set_data(dataset["train"].rays(model_cfg.render.background))
     return be
 
 
 def time_step(be, k: int) -> float:
     """Seconds of one training step (synchronised)."""
     t0 = time.perf_counter()
-    be.scalar(be.step(1000 + k, 1e-3))
+    be.read(be.step(k, 1000 + k, 1e-3))
     if be.name == "drjit":
         dr.sync_thread()
     return time.perf_counter() - t0

@@ -14,10 +14,12 @@ import time
 
 import drjit as dr
 
-import mitnerf  # noqa: F401
+import mitnerf
 from mitnerf.data.generate import make_dataset
 from mitnerf.data.rig import RigConfig, noise_preset
 from mitnerf.scenes.registry import get_scene
+
+mitnerf.set_variant()
 
 
 def timed(scene, rig) -> float:

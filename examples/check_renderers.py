@@ -16,29 +16,26 @@ import argparse
 import sys
 import time
 
+import mitsuba as mi
 import numpy as np
 
-import mitnerf  # noqa: F401  (checks LLVM, selects llvm_ad_rgb)
+import mitnerf
+from mitnerf.data.generate import render_cameras
+from mitnerf.data.rig import RigConfig, make_rig
+from mitnerf.scenes.gt_render import RenderSettings
+from mitnerf.scenes.registry import get_scene
 
 
 def render(variant: str, scene_name: str, cams, spp: int):
-    import mitsuba as mi
-
-    from mitnerf.scenes.registry import get_scene
-    from mitnerf.scenes.render import RenderSettings, render_views
-
-    mi.set_variant(variant)
+    mitnerf.set_variant(variant)
     mi.set_log_level(mi.LogLevel.Error)   # scalar mode warns that Python integrators are slow
     scene = get_scene(scene_name).load()
     t0 = time.perf_counter()
-    views = render_views(scene, cams, RenderSettings(spp=spp))
+    views = render_cameras(scene, cams, RenderSettings(spp=spp))
     return views, time.perf_counter() - t0
 
 
 def main(argv=None) -> int:
-    from mitnerf.data.rig import RigConfig, make_rig
-    from mitnerf.scenes.registry import get_scene
-
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenes", nargs="+", default=["bunny", "vase"])
     p.add_argument("--views", type=int, default=6)
@@ -56,13 +53,13 @@ def main(argv=None) -> int:
                                   radius_std=0.1, angle_std=2, seed=1)).train
         a, ta = render("scalar_rgb", name, cams, args.spp)
         b, tb = render("llvm_ad_rgb", name, cams, args.spp)
-        psnr = 10 * np.log10(1.0 / max(np.mean((a.rgb - b.rgb) ** 2), 1e-20))
+        psnr = 10 * np.log10(1.0 / max(np.mean((a.linear - b.linear) ** 2), 1e-20))
         hit = a.mask & b.mask
         depth_err = float(np.abs(a.depth[hit] - b.depth[hit]).max()) if hit.any() else 0.0
         mask_same = bool(np.array_equal(a.mask, b.mask))
         passed = psnr >= args.min_psnr and depth_err <= args.depth_tol and mask_same
         ok &= passed
-        print(f"{name:>15}: colour PSNR {psnr:6.1f} dB (max |diff| {np.abs(a.rgb - b.rgb).max():.2e}), "
+        print(f"{name:>15}: colour PSNR {psnr:6.1f} dB (max |diff| {np.abs(a.linear - b.linear).max():.2e}), "
               f"depth max |diff| {depth_err:.2e}, masks {'equal' if mask_same else 'DIFFER'}; "
               f"scalar {ta:.2f} s, llvm {tb:.2f} s  {'ok' if passed else 'FAIL'}")
     print("check_renderers: PASS" if ok else "check_renderers: FAIL")

@@ -8,7 +8,7 @@ size takes 8 minutes on 2 cores, `--quick` about 1-2 minutes.
 
 import sys
 
-from mitnerf.cli.experiment_cmd import example_main
+from mitnerf.cli import example_main
 
 if __name__ == "__main__":
     sys.exit(example_main("depth", __doc__))

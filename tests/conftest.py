@@ -1,4 +1,4 @@
-"""Shared fixtures: small datasets rendered once per test session (llvm_ad_rgb)."""
+"""Shared fixtures: small datasets rendered once per test session (llvm_ad_rgb), small recipes."""
 
 from __future__ import annotations
 
@@ -8,12 +8,15 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("MITNERF_CACHE", str(Path(__file__).resolve().parents[1] / ".cache" / "mitnerf"))
+os.environ.setdefault("MITNERF_RESULTS", str(Path(__file__).resolve().parents[1] / ".cache" / "results-tests.json"))
 
 import drjit as dr  # noqa: E402
 
-import mitnerf  # noqa: E402,F401
+import mitnerf  # noqa: E402
 
+mitnerf.set_variant()
 dr.set_thread_count(2)
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="session")
@@ -36,3 +39,19 @@ def vase_small():
 
     return make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=6, n_val=1, n_test=4, resolution=24, seed=3,
                                                      **noise_preset(1.0)), progress=False)
+
+
+def small(name: str = "vanilla-2d", **overrides):
+    """A recipe shrunk for tests: short, quiet, small."""
+    from mitnerf.train.recipes import get_recipe
+
+    sizes = {"vanilla": dict(width=16, depth=3, pos_L=6, dir_L=3), "grid": dict(resolution=33, initial_resolution=17,
+                                                                               upsample_at=(10,)),
+             "hashgrid": dict(n_levels=4, log2_hashmap_size=10, hidden=8, geo_features=3, base_resolution=4,
+                              max_resolution=64)}
+    r = get_recipe(name)
+    args = dict(sizes[r.model.field], n_coarse=32, batch_rays=256, val_every=0, progress=False, iters=30)
+    r = r.override(**{**args, **overrides})
+    if "time_budget" not in overrides:
+        r.train.time_budget = None
+    return r

@@ -131,16 +131,18 @@ LLVM15 = Path("/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1")
 @pytest.mark.skipif(not LLVM15.exists(), reason="needs Debian's libLLVM-15 to play an old machine")
 def test_llvm_older_than_16_is_refused_in_one_line():
     env = {**os.environ, "DRJIT_LIBLLVM_PATH": str(LLVM15)}
-    r = subprocess.run([sys.executable, "-c", "import mitnerf"], capture_output=True, text=True, env=env)
-    assert r.returncode != 0
-    lines = [l for l in r.stderr.splitlines() if l.strip()]
+    r = subprocess.run([sys.executable, "-m", "mitnerf", "recipes"], capture_output=True, text=True, env=env, cwd=ROOT)
+    assert r.returncode == 2
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and "LLVM >= 16" in lines[0] and "libllvm19" in lines[0]
 
 
-def test_variant_can_be_chosen():
-    r = subprocess.run([sys.executable, "-c", "import mitnerf, mitsuba; print(mitsuba.variant())"],
-                       capture_output=True, text=True, env={**os.environ, "MITNERF_VARIANT": "scalar_rgb"})
-    assert r.stdout.strip() == "scalar_rgb"
-    r = subprocess.run([sys.executable, "-c", "import mitnerf"], capture_output=True, text=True,
+def test_import_has_no_side_effects_and_entry_points_choose_the_variant():
+    code = ("import sys, mitsuba as mi, mitnerf, mitnerf.train.fit, mitnerf.cli; "
+            "print(mi.variant(), 'torch' in sys.modules); mitnerf.set_variant(); print(mi.variant())")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env={**os.environ, "MITNERF_VARIANT": "scalar_rgb"})
+    assert r.stdout.split() == ["None", "False", "scalar_rgb"], r.stderr
+    r = subprocess.run([sys.executable, "-m", "mitnerf", "recipes"], capture_output=True, text=True, cwd=ROOT,
                        env={**os.environ, "MITNERF_VARIANT": "cuda_nonexistent"})
-    assert r.returncode != 0 and "set MITNERF_VARIANT" in r.stderr
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "set MITNERF_VARIANT" in r.stderr

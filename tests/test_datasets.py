@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mitnerf.data.color import to_uint8
-from mitnerf.data.formats import load_dataset, read_tiny_nerf, save_dataset, write_tiny_nerf
+from mitnerf.data.formats import load_dataset, read_tiny_nerf, save_dataset
 from mitnerf.data.rig import RigConfig, make_rig
 from mitnerf.scenes.polygon import Polygon
 
@@ -35,8 +35,28 @@ def test_blender_round_trip(vase_small, tmp_path):
     assert_same(vase_small, load_dataset(tmp_path / "ds"))
 
 
+@pytest.mark.parametrize("ds_name", ["bunny_small", "vase_small"])
+def test_nerfstudio_round_trip(ds_name, request, tmp_path):
+    """The nerfstudio layout holds 2D and 3D datasets: rays, colours, depth (written as
+    nerfstudio's z-depth in thousandths) and masks come back."""
+    ds = request.getfixturevalue(ds_name)
+    save_dataset(ds, tmp_path / "ns", "nerfstudio")
+    header = json.loads((tmp_path / "ns" / "transforms.json").read_text())
+    assert {"fl_x", "fl_y", "cx", "cy", "w", "h"} <= set(header) and header["orientation_override"] == "none"
+    assert header["frames"][0]["file_path"].endswith(".png") and "depth_file_path" in header["frames"][0]
+    back = load_dataset(tmp_path / "ns")
+    assert back.dim == ds.dim and back.meta["format"] == "nerfstudio"
+    for s in ds.splits:
+        for u, v in zip(ds[s].cameras.rays(), back[s].cameras.rays()):
+            np.testing.assert_allclose(u, v, atol=1e-9)
+        np.testing.assert_allclose(back[s].color, ds[s].color, atol=1.0 / 255)       # 8-bit straight alpha
+        np.testing.assert_array_equal(back[s].mask, ds[s].mask)
+        hit = ds[s].mask
+        np.testing.assert_allclose(back[s].depth[hit], ds[s].depth[hit], rtol=1e-5)
+
+
 def test_tiny_nerf_round_trip(vase_small, tmp_path):
-    write_tiny_nerf(vase_small, tmp_path / "tiny.npz")
+    save_dataset(vase_small, tmp_path / "tiny.npz", "tiny_nerf")
     back = read_tiny_nerf(tmp_path / "tiny.npz")
     for s in ("train", "val", "test"):
         for u, v in zip(vase_small[s].cameras.rays(), back[s].cameras.rays()):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mitnerf.errors import MitnerfError
-from mitnerf.geometry import (Mesh, auto_level, chamfer_distance, density_grid, extract_mesh, level_for_opacity,
+from mitnerf.geometry import (Mesh, auto_level, chamfer_distance, density_volume, extract_mesh, level_for_opacity,
                               mesh_from_ply, sample_surface)
 from mitnerf.scenes.ply import read_ply
 
@@ -127,9 +127,9 @@ def test_no_surface_names_the_density_span():
     with pytest.raises(MitnerfError, match="no matter"):
         auto_level(np.full((4, 4, 4), 3.0))
     with pytest.raises(MitnerfError, match="NaN"):
-        density_grid(lambda p: np.full(len(p), np.nan), 1.0, 4, progress=False)
+        density_volume(lambda p: np.full(len(p), np.nan), 1.0, 4, progress=False)
     with pytest.raises(MitnerfError, match="returned 8 values"):
-        density_grid(lambda p: np.zeros(8), 1.0, 4, progress=False)
+        density_volume(lambda p: np.zeros(8), 1.0, 4, progress=False)
 
 
 def test_auto_level_separates_haze_from_matter():
@@ -151,16 +151,15 @@ def test_auto_level_separates_haze_from_matter():
 
 
 def test_mesh_of_a_trained_checkpoint(vase_small, tmp_path):
-    from mitnerf.render.pipeline import RenderConfig
-    from mitnerf.train.checkpoint import load_checkpoint, save_checkpoint
-    from mitnerf.train.config import ModelConfig, TrainConfig
-    from mitnerf.train.trainer import fit
+    from conftest import small
 
-    mc = ModelConfig("vanilla", dict(width=16, depth=2), RenderConfig(n_coarse=16, background=(1.0, 1.0, 1.0)))
-    run = fit(vase_small, mc, TrainConfig(iters=20, val_every=0, progress=False, batch_rays=256), "drjit")
+    from mitnerf.train.checkpoint import load_checkpoint, save_checkpoint
+    from mitnerf.train.fit import fit
+
+    run = fit(vase_small, small("vanilla-3d", width=16, depth=2, n_coarse=16, n_fine=0, iters=20), "drjit")
     save_checkpoint(run, tmp_path / "ckpt")
-    density = load_checkpoint(tmp_path / "ckpt").backend.density
-    g = density_grid(density, run.bound, 16, progress=False)
+    density = load_checkpoint(tmp_path / "ckpt")[0].backend.density
+    g = density_volume(density, run.bound, 16, progress=False)
     np.testing.assert_allclose(g[3, 5, 7], density(np.array([[-1.1 + 3 * 2.2 / 15, -1.1 + 5 * 2.2 / 15,
                                                               -1.1 + 7 * 2.2 / 15]]))[0], rtol=1e-5)
     m = extract_mesh(density, run.bound, 16, level="auto", progress=False)

@@ -87,8 +87,8 @@ def test_occupancy_keeps_every_sample_with_density():
 
 
 def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
+    from mitnerf.data.cache import cached_dataset
     from mitnerf.data.rig import RigConfig
-    from mitnerf.experiments.common import cached_dataset
     from mitnerf.train.auto import AutoConfig, auto_size
 
     cfg = AutoConfig(target_psnr=28.0, steps=250, families=("grid",), time_budget=120)

@@ -6,14 +6,14 @@ import pytest
 from mitnerf.data.rig import RigConfig, make_rig, noise_preset
 from mitnerf.scenes.objects3d import OBJECTS_3D
 from mitnerf.scenes.registry import SCENES_2D, get_scene
-from mitnerf.scenes.render import RenderSettings, exact_depth, render_color
+from mitnerf.scenes.gt_render import RenderSettings, exact_depth, render_color
 
 
 @pytest.mark.parametrize("name", SCENES_2D)
 def test_2d_depth_and_mask_match_the_analytic_outline(name):
     info = get_scene(name)
     cams = make_rig(RigConfig(dim=2, n_train=40, n_val=0, n_test=0, seed=7, **noise_preset(2.0))).train
-    depth, mask = exact_depth(info.load(), cams)
+    depth, mask = exact_depth(info.load(), *cams.rays())
     o, d = cams.rays()
     ref = info.polygon.intersect(o.reshape(-1, 2), d.reshape(-1, 2)).reshape(depth.shape)
     np.testing.assert_array_equal(mask, np.isfinite(ref))
@@ -34,8 +34,9 @@ def test_colour_is_converged(name):
                               resolution=48 if dim == 3 else 100, seed=1)).train
     scene = info.load()
     spp = RenderSettings().spp
-    a, alpha = render_color(scene, cams, RenderSettings(seed=1), spp=spp)
-    b, _ = render_color(scene, cams, RenderSettings(seed=2), spp=4 * spp)
+    view = (cams.mitsuba_frames(), cams.fov, cams.height, cams.width)
+    a, alpha = render_color(scene, *view, RenderSettings(seed=1, spp=spp))
+    b, _ = render_color(scene, *view, RenderSettings(seed=2, spp=4 * spp))
     assert alpha.mean() > 0.02                            # something is in view
     assert psnr(a, b) >= 50.0
 

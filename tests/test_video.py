@@ -95,13 +95,12 @@ def test_videos_read_back_with_the_right_frames(tmp_path):
 @pytest.fixture(scope="module")
 def tiny_checkpoint(vase_small, tmp_path_factory):
     """A 3D vanilla model (width 16, depth 2, 16 samples) after 20 steps on the small vase."""
-    from mitnerf.render.pipeline import RenderConfig
-    from mitnerf.train.checkpoint import save_checkpoint
-    from mitnerf.train.config import ModelConfig, TrainConfig
-    from mitnerf.train.trainer import fit
+    from conftest import small
 
-    mc = ModelConfig("vanilla", dict(width=16, depth=2), RenderConfig(n_coarse=16, background=(1.0, 1.0, 1.0)))
-    run = fit(vase_small, mc, TrainConfig(iters=20, val_every=0, progress=False, batch_rays=256), "drjit")
+    from mitnerf.train.checkpoint import save_checkpoint
+    from mitnerf.train.fit import fit
+
+    run = fit(vase_small, small("vanilla-3d", width=16, depth=2, n_coarse=16, n_fine=0, iters=20), "drjit")
     return save_checkpoint(run, tmp_path_factory.mktemp("ckpt") / "vase")
 
 
@@ -109,7 +108,7 @@ def test_a_trained_model_makes_a_video(tiny_checkpoint, tmp_path):
     from mitnerf.data.color import to_uint8
     from mitnerf.train.checkpoint import load_checkpoint
 
-    run = load_checkpoint(tiny_checkpoint)
+    run, _ = load_checkpoint(tiny_checkpoint)
     v = orbit_video(run.backend, OrbitConfig(n_frames=6, resolution=16), tmp_path, progress=False)
     assert set(v.paths) == {"color_gif", "color_mp4", "depth_gif", "depth_mp4"}
     for key, path in v.paths.items():
@@ -146,23 +145,21 @@ def test_video_cli_writes_videos_mesh_and_chamfer(tiny_checkpoint, tmp_path, cap
 
 
 def test_video_cli_errors_say_what_to_do(tiny_checkpoint, bunny_small, tmp_path):
-    from mitnerf.render.pipeline import RenderConfig
-    from mitnerf.train.checkpoint import save_checkpoint
-    from mitnerf.train.config import ModelConfig, TrainConfig
-    from mitnerf.train.trainer import fit
+    from conftest import small
 
-    with pytest.raises(MitnerfError, match="does not exist.*mitnerf fit"):
+    from mitnerf.train.checkpoint import save_checkpoint
+    from mitnerf.train.fit import fit
+
+    with pytest.raises(MitnerfError, match="not a mitnerf checkpoint.*mitnerf fit"):
         video_cli(["--checkpoint", str(tmp_path / "nothing"), "--out", str(tmp_path / "v")])
     with pytest.raises(MitnerfError, match="--level must be"):
         video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--level", "high"])
-    # 20 steps leave densities near 0.3 everywhere: the default level 3 has no surface; the videos are
-    # still written
-    with pytest.raises(MitnerfError, match=r"videos are in .*no surface at density level 3.*span \["):
+    # 20 steps leave densities near 0.3 everywhere: the default level 3 has no surface; nothing is written
+    with pytest.raises(MitnerfError, match=r"nothing was written.*no surface at density level 3.*span \["):
         video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--frames", "2",
                    "--resolution", "8", "--mesh-resolution", "8"])
-    assert (tmp_path / "v" / "color.gif").exists()
-    mc = ModelConfig("vanilla", dict(width=16, depth=2), RenderConfig(n_coarse=16))
-    run2d = fit(bunny_small, mc, TrainConfig(iters=2, val_every=0, progress=False, batch_rays=64), "drjit")
+    assert not (tmp_path / "v").exists() and len(list(tmp_path.iterdir())) == 0
+    run2d = fit(bunny_small, small(width=16, depth=2, n_coarse=16, iters=2, batch_rays=64), "drjit")
     save_checkpoint(run2d, tmp_path / "ckpt2d")
-    with pytest.raises(MitnerfError, match="2D field.*3D checkpoint"):
+    with pytest.raises(MitnerfError, match="holds a 2D vanilla field; `mitnerf video`.*needs a 3D one"):
         video_cli(["--checkpoint", str(tmp_path / "ckpt2d"), "--out", str(tmp_path / "v2")])

@@ -1,6 +1,9 @@
-"""``mitnerf`` / ``python -m mitnerf``: one sub-command per job.
+"""``mitnerf`` / ``python -m mitnerf``: one sub-command per job, each a thin module.
 
-Bad input ends with one line naming the problem and the fix, and exit status 2.
+Every bad input ends in one line on stderr (``mitnerf: error: ...``, naming the problem
+and the fix) and exit status 2, with nothing written. A training run that stops
+(NaN, collapse) exits 1; an interrupted one 130 (SIGINT) or 143 (SIGTERM), after
+writing its checkpoint.
 """
 
 from __future__ import annotations
@@ -8,28 +11,44 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import MitnerfError
-from . import data_cmds, experiment_cmd, fit_cmd, sweep_cmd, video_cmd
+from .._variant import set_variant
+from ..errors import ConfigError, MitnerfError
+from . import data_cmds, experiment_cmd, fit_cmd, recipes_cmd, sweep_cmd, video_cmd
 
-COMMANDS = [data_cmds, fit_cmd, experiment_cmd, sweep_cmd, video_cmd]
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (a :class:`ConfigError`), not usage text."""
+
+    def error(self, message: str):
+        raise ConfigError(f"{self.prog}: {message}; see `{self.prog} --help`")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mitnerf", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    for module in COMMANDS:
+def build_parser() -> Parser:
+    parser = Parser(prog="mitnerf", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for module in (data_cmds, fit_cmd, recipes_cmd, video_cmd, experiment_cmd, sweep_cmd):
         module.register(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        args = build_parser().parse_args(argv)
+        set_variant()
         return int(args.run(args) or 0)
     except MitnerfError as exc:
         print(f"mitnerf: error: {exc}", file=sys.stderr)
         return 2
+
+
+def example_main(name: str, doc: str, argv=None) -> int:
+    """What an ``examples/`` script of an experiment runs: ``mitnerf experiment <name>`` with
+    ``--out`` defaulting to ``out/experiments/<name>`` (other flags pass through)."""
+    p = argparse.ArgumentParser(description=doc.splitlines()[0])
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--out", default=f"out/experiments/{name}")
+    a, rest = p.parse_known_args(argv)
+    return main(["experiment", name, "--out", a.out, *(["--quick"] if a.quick else []), *rest])
 
 
 if __name__ == "__main__":

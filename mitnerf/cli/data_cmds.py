@@ -2,30 +2,43 @@
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
+
+from .._io import Output, atomic_write_bytes
+from ..data.formats import WRITERS, check_output, load_dataset, tiny_nerf_bytes
+from ..data.generate import make_dataset
+from ..data.rig import RigConfig, noise_preset
+from ..errors import ConfigError
+from ..scenes.gt_render import RenderSettings
+from ..scenes.registry import get_scene
+from ..viz.rigs import plot_rig_2d, plot_rig_3d
+from ..viz.strips import split_figures
+from .args import number
 
 
 def register(sub) -> None:
-    p = sub.add_parser("dataset", help="render a dataset of a scene",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = sub.add_parser("dataset", help="render a dataset of a scene")
     p.add_argument("--scene", default=None, help="scene name, or a path to a Mitsuba XML file")
     p.add_argument("--polygon", default=None, help="JSON file with a closed ring of [x, y] points (a 2D scene)")
-    p.add_argument("--out", required=True, help="output folder (written atomically)")
-    p.add_argument("--views", type=int, default=50, help="training views")
-    p.add_argument("--val", type=int, default=10, help="validation views")
-    p.add_argument("--test", type=int, default=20, help="test views (evenly spaced, noise-free)")
-    p.add_argument("--resolution", type=int, default=100, help="pixels (per side in 3D)")
-    p.add_argument("--radius", type=float, default=None, help="camera distance (default 4 in 2D, 3.5 in 3D)")
-    p.add_argument("--fov", type=float, default=None, help="field of view in degrees")
+    p.add_argument("--out", required=True, help="output folder (new, empty, or an earlier dataset of mitnerf's)")
+    p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files "
+                   "(they are left alone)")
+    p.add_argument("--views", type=number(True, 0, 100_000), default=50, help="training views")
+    p.add_argument("--val", type=number(True, 0, 100_000), default=10, help="validation views")
+    p.add_argument("--test", type=number(True, 0, 100_000), default=20, help="test views (evenly spaced, noise-free)")
+    p.add_argument("--resolution", type=number(True, 0, 16384), default=100, help="pixels (per side in 3D)")
+    p.add_argument("--radius", type=number(False, 0, 1e4, True), default=None,
+                   help="camera distance (default 4 in 2D, 3.5 in 3D)")
+    p.add_argument("--fov", type=number(False, 0, 179, True), default=None, help="field of view in degrees")
     p.add_argument("--layout", choices=["random", "even"], default="random", help="train/val placement")
-    p.add_argument("--noise", type=float, default=1.0,
+    p.add_argument("--noise", type=number(False, 0, 100), default=1.0,
                    help="scale of all placement noise (1: radius 0.1, angle 2 deg, position 0.05, look 1 deg)")
     for name in ("radius-std", "angle-std", "position-std", "look-std"):
-        p.add_argument(f"--{name}", type=float, default=None, help="override one noise parameter")
-    p.add_argument("--spp", type=int, default=64, help="samples per pixel for colour")
-    p.add_argument("--seed", type=int, default=0, help="seed of placement noise and of the renderer")
-    p.add_argument("--format", choices=["nerf2d", "blender", "tiny_nerf"], default=None,
+        p.add_argument(f"--{name}", type=number(False, 0, 1e4), default=None, help="override one noise parameter")
+    p.add_argument("--spp", type=number(True, 1, 1 << 16), default=64, help="samples per pixel for colour")
+    p.add_argument("--seed", type=number(True, 0, 2 ** 32 - 1), default=0,
+                   help="seed of placement noise and of the renderer")
+    p.add_argument("--format", choices=["nerf2d", "blender", "nerfstudio", "tiny_nerf"], default=None,
                    help="file format (default: nerf2d for 2D, blender for 3D)")
     p.add_argument("--kind", choices=["2d", "3d"], default=None, help="kind of a scene given as XML")
     p.set_defaults(run=run_dataset)
@@ -37,49 +50,43 @@ def register(sub) -> None:
 
 
 def run_dataset(args) -> int:
-    from ..data.formats import save_dataset
-    from ..data.generate import make_dataset
-    from ..data.rig import RigConfig, noise_preset
-    from ..scenes.registry import get_scene
-    from ..scenes.render import RenderSettings
-
     scene = get_scene(args.scene, polygon=args.polygon, kind=args.kind)
+    dim = 2 if scene.kind == "2d" else 3
+    fmt = args.format or ("nerf2d" if dim == 2 else "blender")
+    if (fmt == "nerf2d" and dim == 3) or (fmt in ("blender", "tiny_nerf") and dim == 2):
+        raise ConfigError(f"--format {fmt} cannot hold a {dim}D dataset; use "
+                          f"{'nerf2d or nerfstudio' if dim == 2 else 'blender, nerfstudio or tiny_nerf'}")
     noise = noise_preset(args.noise)
-    for key in noise:
-        value = getattr(args, key)
-        if value is not None:
-            noise[key] = value
-    rig = RigConfig(dim=2 if scene.kind == "2d" else 3, n_train=args.views, n_val=args.val, n_test=args.test,
-                    radius=args.radius, resolution=args.resolution, fov=args.fov, layout=args.layout,
-                    seed=args.seed, **noise)
+    noise.update({k: getattr(args, k) for k in noise if getattr(args, k) is not None})
+    rig = RigConfig(dim=dim, n_train=args.views, n_val=args.val, n_test=args.test, radius=args.radius,
+                    resolution=args.resolution, fov=args.fov, layout=args.layout, seed=args.seed, **noise)
     rig.validate()
-    if args.spp < 1:
-        from ..errors import MitnerfError
-        raise MitnerfError(f"--spp must be at least 1, got {args.spp}")
+    target = check_output(args.out, fmt, args.overwrite)          # refused before rendering
     ds = make_dataset(scene, rig, RenderSettings(spp=args.spp, seed=args.seed))
-    out = save_dataset(ds, args.out, args.format)
+    if target is None:
+        atomic_write_bytes(Path(args.out), tiny_nerf_bytes(ds))
+    else:
+        with target.staged() as tmp:
+            WRITERS[fmt](ds, tmp)
     counts = ", ".join(f"{k} {len(v)}" for k, v in ds.splits.items())
-    print(f"wrote {out} ({scene.name}, {ds.dim}D, {counts}; near {ds.near:.3f}, far {ds.far:.3f})")
+    print(f"wrote {args.out} ({scene.name}, {ds.dim}D, {counts}; near {ds.near:.3f}, far {ds.far:.3f})")
     return 0
 
 
 def run_show(args) -> int:
-    from ..data.formats import load_dataset
-    from ..viz.rigs import plot_rig_2d, plot_rig_3d
-    from ..viz.strips import split_figures
-
     ds = load_dataset(args.dataset)
     src = Path(args.dataset)
     out = Path(args.out) if args.out else (src / "figures" if src.is_dir() else src.with_suffix("") / "figures")
-    out.mkdir(parents=True, exist_ok=True)
+    target = Output(out, "figures")
     paths = []
-    for name, split in ds.splits.items():
-        paths += split_figures(split, name, out, ds.background, ds.near, ds.far)
-    cams = {k: v.cameras for k, v in ds.splits.items()}
-    if ds.dim == 2:
-        paths.append(plot_rig_2d(cams, ds.meta.get("polygon"), out / "rig.png", title=ds.meta.get("scene", "")))
-    else:
-        paths.append(plot_rig_3d(cams, ds.meta.get("mesh"), out / "rig.png", ds.meta.get("texture")))
+    with target.staged() as tmp:
+        for name, split in ds.splits.items():
+            paths += split_figures(split, name, tmp, ds.background, ds.near, ds.far)
+        cams = {k: v.cameras for k, v in ds.splits.items()}
+        if ds.dim == 2:
+            paths.append(plot_rig_2d(cams, ds.meta.get("polygon"), tmp / "rig.png", title=ds.meta.get("scene", "")))
+        else:
+            paths.append(plot_rig_3d(cams, ds.meta.get("mesh"), tmp / "rig.png", ds.meta.get("texture")))
     for p in paths:
-        print(p)
+        print(out / Path(p).name)
     return 0

@@ -1,55 +1,46 @@
-"""``mitnerf experiment NAME --out DIR [--quick] [--seed S]``."""
+"""``mitnerf experiment NAME --out DIR [--quick] [--seed S] [--set KEY=VALUE ...]``.
+
+Runs one experiment of :mod:`mitnerf.experiments` into ``DIR`` (CSV, figures,
+``report.md``); ``--set`` changes one field of the experiment's ``Config``.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
+
+from .._io import Output
+from ..errors import ConfigError
+from ..experiments import EXPERIMENTS
+from .args import key_value, number
 
 
 def register(sub) -> None:
-    from ..experiments import EXPERIMENTS
-
     p = sub.add_parser("experiment", help="run an experiment; writes CSV, figures and report.md")
     p.add_argument("name", choices=list(EXPERIMENTS))
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--quick", action="store_true", help="a small version (about 2 minutes)")
-    p.add_argument("--full", action="store_true",
-                   help="the complete design where an experiment has one (window-shop: the whole factorial)")
-    p.add_argument("--seed", type=int, default=0)
-    p.set_defaults(run=run_experiment)
+    p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files")
+    p.add_argument("--quick", action="store_true", help="a small version (about a minute)")
+    p.add_argument("--seed", type=number(True, 0, 2 ** 31), default=0)
+    p.add_argument("--set", dest="sets", action="append", default=[], type=key_value, metavar="KEY=VALUE",
+                   help="change one setting of the experiment's Config (repeatable)")
+    p.set_defaults(run=run)
 
 
-def run_experiment(args) -> int:
-    from ..experiments import get_experiment
+def configure(module, quick: bool, seed: int, sets: list) -> object:
+    cfg = module.quick(seed) if quick else module.Config(seed=seed)
+    names = {f.name for f in dataclasses.fields(cfg)}
+    for key, value in sets:
+        if key not in names:
+            raise ConfigError(f"the experiment has no setting {key!r}; its settings are {', '.join(sorted(names))}")
+        setattr(cfg, key, tuple(value) if isinstance(value, list) else value)
+    return cfg
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    import inspect
 
-    from ..errors import MitnerfError
-
-    run = get_experiment(args.name).run
-    extra = {}
-    if args.full:
-        if "full" not in inspect.signature(run).parameters:
-            raise MitnerfError(f"experiment {args.name!r} has no --full design; drop --full")
-        if args.quick:
-            raise MitnerfError("--full and --quick exclude each other; drop one")
-        extra["full"] = True
-    report = run(out, quick=args.quick, seed=args.seed, **extra)
-    print(f"wrote {report}")
+def run(args) -> int:
+    module = EXPERIMENTS[args.name]
+    cfg = configure(module, args.quick, args.seed, args.sets)
+    out = Output(Path(args.out), f"experiment {args.name}", args.overwrite).claim()
+    module.run(cfg, out)
+    print(f"wrote {out / 'report.md' if (out / 'report.md').exists() else out}")
     return 0
-
-
-def example_main(name: str, doc: str, argv=None) -> int:
-    """What an ``examples/`` script of an experiment runs: ``mitnerf experiment <name>``
-    with ``--out`` defaulting to ``out/experiments/<name>``."""
-    import argparse
-
-    from . import main as cli
-
-    p = argparse.ArgumentParser(description=doc.splitlines()[0])
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--out", default=f"out/experiments/{name}")
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args(argv)
-    return cli(["experiment", name, "--out", a.out, "--seed", str(a.seed)] + (["--quick"] if a.quick else []))

@@ -1,131 +1,99 @@
-"""``mitnerf fit``: train a field on any dataset mitnerf reads."""
+"""``mitnerf fit``: train a recipe on any dataset mitnerf reads, evaluate it, write it.
+
+    mitnerf fit --data DIR [--out RUN] [--field F | --recipe R] [--lr ...] [--auto]
+    mitnerf fit --resume RUN
+
+With no model flags the default recipe of the dataset's dimension trains (``mitnerf
+recipes``); the recipe is printed first. Everything is checked before training: the
+dataset (all splits, the test split included), the flags, the output folder. The last
+line is :meth:`~mitnerf.train.evaluate.RunRecord.line`: ``test PSNR <x> dB, ...``.
+Ctrl-C or SIGTERM writes the checkpoint (with ``--out``) and prints how to resume.
+"""
 
 from __future__ import annotations
 
-import argparse
-import json
+import signal
+from pathlib import Path
 
-from ..errors import MitnerfError
-
-
-def parse_background(text: str | None, default):
-    if text is None:
-        return tuple(default)
-    named = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
-    if text in named:
-        return named[text]
-    try:
-        vals = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        vals = ()
-    if len(vals) != 3:
-        raise MitnerfError(f"--background must be black, white or r,g,b (three numbers), got {text!r}")
-    return vals
-
-
-def parse_sets(items: list[str]) -> dict:
-    """``key=value`` pairs; values are JSON literals when they parse, else strings."""
-    out = {}
-    for item in items or []:
-        if "=" not in item:
-            raise MitnerfError(f"--set expects key=value, got {item!r}")
-        k, v = item.split("=", 1)
-        try:
-            out[k.strip()] = json.loads(v)
-        except json.JSONDecodeError:
-            out[k.strip()] = v
-    return out
-
-
-def add_model_args(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("model")
-    g.add_argument("--field", default="vanilla", help="field family")
-    g.add_argument("--width", type=int, default=None)
-    g.add_argument("--depth", type=int, default=None)
-    g.add_argument("--pos-L", type=int, default=None, help="positional-encoding frequencies")
-    g.add_argument("--dir-L", type=int, default=None, help="view-direction encoding frequencies")
-    g.add_argument("--no-view-dependence", action="store_true")
-    g.add_argument("--density-activation", choices=["relu", "softplus", "trunc_exp"], default=None)
-    g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="any other argument of the field's config (repeatable)")
-    g.add_argument("--samples", type=int, default=64, help="coarse samples per ray")
-    g.add_argument("--fine", type=int, default=0, help="importance samples per ray (0: no fine pass)")
-    g.add_argument("--background", default=None, help="black, white or r,g,b (default: the dataset's)")
-    g.add_argument("--method", choices=["replay", "autodiff"], default="replay", help="volume integral")
-
-
-def model_config(args, dataset):
-    from ..render.pipeline import RenderConfig
-    from ..train.config import ModelConfig
-
-    field_args = parse_sets(args.set)
-    for key, value in (("width", args.width), ("depth", args.depth), ("pos_L", args.pos_L),
-                       ("dir_L", args.dir_L), ("density_activation", args.density_activation)):
-        if value is not None:
-            field_args[key] = value
-    if args.no_view_dependence:
-        field_args["view_dependent"] = False
-    render = RenderConfig(n_coarse=args.samples, n_fine=args.fine, method=args.method,
-                          background=parse_background(args.background, dataset.background))
-    return ModelConfig(args.field, field_args, render)
+from .._io import Output
+from ..data.formats import load_dataset
+from ..errors import ConfigError
+from ..train.auto import choose_recipe
+from ..train.checkpoint import load_checkpoint
+from ..train.fit import check_dataset, fit
+from ..train.loop import Interrupted, TrainingFailed
+from ..train.report import write_fit
+from .args import add_recipe_flags, overrides, recipe_from_args
 
 
 def register(sub) -> None:
-    p = sub.add_parser("fit", help="train a field on a dataset", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    p.add_argument("--data", required=True, help="dataset folder (NeRF2D, Blender/nerfstudio) or tiny-NeRF .npz")
-    p.add_argument("--backend", choices=["drjit", "torch"], default="drjit")
-    p.add_argument("--iters", type=int, default=2000)
-    p.add_argument("--time-budget", type=float, default=None, help="seconds of training")
+    p = sub.add_parser("fit", help="train a field on a dataset (the default recipe unless told otherwise)")
+    p.add_argument("--data", default=None, help="dataset folder (NeRF2D, Blender, nerfstudio) or tiny-NeRF .npz")
     p.add_argument("--out", default=None, help="folder for the checkpoint, metrics and figures")
-    p.add_argument("--lr", type=float, default=5e-3)
-    p.add_argument("--lr-final", type=float, default=5e-4)
-    p.add_argument("--batch", type=int, default=1024, help="rays per step")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--val-every", type=int, default=250)
-    g = p.add_argument_group("auto-sizing (--auto)")
-    g.add_argument("--auto", action="store_true",
-                   help="search for the smallest model that reaches --target validation PSNR, then train it")
-    g.add_argument("--target", type=float, default=30.0, help="validation PSNR to reach (dB)")
-    g.add_argument("--auto-steps", type=int, default=400, help="training steps per candidate")
-    g.add_argument("--auto-budget", type=float, default=300.0, help="seconds for the whole search")
-    add_model_args(p)
-    p.set_defaults(run=run_fit)
+    p.add_argument("--overwrite", action="store_true",
+                   help="write into an --out folder that holds other files (they are left alone)")
+    p.add_argument("--resume", default=None, metavar="RUN", help="continue an interrupted run from its --out folder")
+    p.add_argument("--backend", choices=["drjit", "torch"], default=None, help="engine (default: drjit)")
+    p.add_argument("--auto", action="store_true", help="choose view dependence and regularisation from a short "
+                   "probe of the dataset, and say why")
+    p.add_argument("--no-figures", action="store_true", help="write the checkpoint and metrics only")
+    add_recipe_flags(p)
+    p.set_defaults(run=run)
 
 
-def run_fit(args) -> int:
-    from ..data.formats import load_dataset
-    from ..train.config import TrainConfig
-    from ..train.report import fit_and_report, summary_line
-    from ..train.trainer import TrainingFailed
-
-    if args.iters < 1:
-        raise MitnerfError(f"--iters must be at least 1, got {args.iters}")
-    ds = load_dataset(args.data)
-    mc = model_config(args, ds)
-    tc = TrainConfig(iters=args.iters, time_budget=args.time_budget, batch_rays=args.batch, lr=args.lr,
-                     lr_final=args.lr_final, seed=args.seed, val_every=args.val_every)
+def run(args) -> int:
+    resume = None
+    if args.resume:
+        if overrides(args) or args.recipe or args.field or args.auto:
+            raise ConfigError("--resume continues the run as it was; drop the recipe flags")
+        prior, resume = load_checkpoint(args.resume, args.backend, need="--resume")
+        data = args.data or prior.dataset_meta.get("path")
+        if not data:
+            raise ConfigError(f"{args.resume} does not record its dataset; pass --data DIR")
+        recipe, backend, out_path = prior.recipe, prior.backend.name, Path(args.resume)
+        dataset = load_dataset(data)
+    else:
+        if not args.data:
+            raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
+        dataset = load_dataset(args.data)
+        recipe = recipe_from_args(args, dataset.dim)
+        backend, out_path = args.backend or "drjit", Path(args.out) if args.out else None
+    check_dataset(dataset, need_test=True)
+    out = Output(out_path, "fit", args.overwrite) if out_path else None      # refused before training
     if args.auto:
-        from ..train.auto import AutoConfig, auto_size
+        recipe, reasons = choose_recipe(dataset, recipe, backend)
+        for line in reasons:
+            print(f"auto: {line}")
+    print(f"recipe {recipe.summary()} ({backend})")
+    return train_and_report(dataset, recipe, backend, out, resume, figures=not args.no_figures)
 
-        result = auto_size(ds, AutoConfig(target_psnr=args.target, steps=args.auto_steps,
-                                          time_budget=args.auto_budget, seed=args.seed, batch_rays=args.batch))
-        print(result.table())
-        for reason in result.reasons:
-            print(f"- {reason}")
-        mc = result.model
-        tc.lr, tc.lr_final = result.train.lr, result.train.lr_final
-    try:
-        from ..fields import field_config
 
-        field_config(mc.field, **{**mc.field_args, "dim": ds.dim})
-    except TypeError as exc:
-        raise MitnerfError(f"bad field argument for {mc.field!r}: {exc}; see the field's config") from None
+def train_and_report(dataset, recipe, backend: str, out: Output | None, resume=None, figures: bool = True) -> int:
+    """Fit, evaluate and write; turn a stopped or interrupted run into its message and exit status."""
     try:
-        _, metrics = fit_and_report(ds, mc, tc, args.backend, args.out)
+        run = fit(dataset, recipe, backend, resume=resume)
+    except Interrupted as exc:
+        where = "nothing was written (pass --out to keep checkpoints)"
+        if out is not None:
+            with out.staged() as tmp:
+                write_fit(exc.run, tmp)
+            where = f"wrote {out.path}; resume with `mitnerf fit --resume {out.path}`"
+        print(f"mitnerf: interrupted ({exc}) at step {exc.run.state.step}; {where}")
+        return 128 + int(exc.signum) if exc.signum in (signal.SIGINT, signal.SIGTERM) else 1
     except TrainingFailed as exc:
-        print(f"mitnerf: training stopped: {exc}")
+        rec = exc.run.record(dataset, geometry_metrics=False)
+        rec.status, rec.reason = exc.status, str(exc)
+        if out is not None:
+            with out.staged() as tmp:
+                write_fit(exc.run, tmp, rec, None)
+        print(f"mitnerf: training stopped: {exc}" + (f"; wrote {out.path}" if out is not None else ""))
         return 1
-    if args.out:
-        print(f"wrote {args.out}")
-    print(summary_line(metrics, args.backend, mc.field))
-    return 0
+    record = run.record(dataset)
+    for note in run.notes:
+        print(note)
+    if out is not None:
+        with out.staged() as tmp:
+            write_fit(run, tmp, record, dataset if figures else None)
+        print(f"wrote {out.path}")
+    print(record.line() + f" ({backend})")
+    return 0 if record.status == "ok" else 1

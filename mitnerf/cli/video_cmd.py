@@ -17,7 +17,15 @@ import argparse
 import json
 from pathlib import Path
 
+from .._io import Output
 from ..errors import MitnerfError
+from ..geometry import LEVEL, chamfer_distance, extract_mesh
+from ..scenes.objects3d import OBJECTS_3D
+from ..scenes.registry import get_scene
+from ..train.checkpoint import load_checkpoint
+from ..viz.meshes import plot_mesh_comparison
+from ..viz.video import OrbitConfig, orbit_video
+from .args import number
 
 
 def parse_level(text: str) -> float | str:
@@ -37,18 +45,19 @@ def register(sub) -> None:
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--checkpoint", required=True, help="checkpoint folder (the --out of `mitnerf fit`)")
     p.add_argument("--out", required=True, help="folder for the videos and the mesh")
-    p.add_argument("--frames", type=int, default=120, help="frames in one 360 degree turn")
-    p.add_argument("--resolution", type=int, default=100, help="frame width and height in pixels")
-    p.add_argument("--elevation", type=float, default=25.0, help="camera elevation in degrees")
-    p.add_argument("--radius", type=float, default=3.5, help="camera distance from the origin")
-    p.add_argument("--fov", type=float, default=40.0, help="horizontal field of view in degrees")
-    p.add_argument("--fps", type=float, default=30.0, help="playback frames per second")
+    p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files")
+    p.add_argument("--frames", type=number(True, 1, 100_000), default=120, help="frames in one 360 degree turn")
+    p.add_argument("--resolution", type=number(True, 1, 4096), default=100, help="frame width and height in pixels")
+    p.add_argument("--elevation", type=number(False, -90, 90), default=25.0, help="camera elevation in degrees")
+    p.add_argument("--radius", type=number(False, 0, 1e4, True), default=3.5, help="camera distance from the origin")
+    p.add_argument("--fov", type=number(False, 0, 179, True), default=40.0, help="horizontal field of view, degrees")
+    p.add_argument("--fps", type=number(False, 0, 1000, True), default=30.0, help="playback frames per second")
     p.add_argument("--mesh", action=argparse.BooleanOptionalAction, default=True,
                    help="also extract the mesh, compare it with the ground truth")
-    p.add_argument("--level", default="3", help="density of the mesh surface, or 'auto' (3 suits the grid "
-                   "fields, whose density peaks around 10-30: level 10 cuts holes in them)")
-    p.add_argument("--mesh-resolution", type=int, default=128, help="marching-cubes grid nodes per side")
-    p.add_argument("--chamfer-points", type=int, default=100_000, help="surface samples per mesh")
+    p.add_argument("--level", default=str(LEVEL), help="density of the mesh surface, or 'auto' (the level of "
+                   "mitnerf's geometry metrics; grid fields peak around 10-30, so level 10 cuts holes in them)")
+    p.add_argument("--mesh-resolution", type=number(True, 2, 1024), default=128, help="marching-cubes nodes per side")
+    p.add_argument("--chamfer-points", type=number(True, 1, 10 ** 7), default=100_000, help="surface samples per mesh")
     p.add_argument("--backend", choices=["drjit", "torch"], default=None, help="default: the checkpoint's")
     p.set_defaults(run=run)
 
@@ -59,9 +68,6 @@ def ground_truth(meta: dict) -> tuple[Path | None, Path | None]:
     mesh = meta.get("mesh")
     texture = meta.get("texture")
     if mesh and not Path(mesh).exists() and meta.get("scene"):
-        from ..scenes.objects3d import OBJECTS_3D
-        from ..scenes.registry import get_scene
-
         if meta["scene"] in OBJECTS_3D:
             info = get_scene(meta["scene"])
             mesh, texture = info.mesh, info.variables.get("texture")
@@ -71,45 +77,32 @@ def ground_truth(meta: dict) -> tuple[Path | None, Path | None]:
 
 
 def run(args) -> int:
-    from ..train.checkpoint import load_checkpoint
-    from ..viz.video import OrbitConfig, orbit_video
-
     level = parse_level(args.level)
     cfg = OrbitConfig(n_frames=args.frames, resolution=args.resolution, elevation=args.elevation,
                       radius=args.radius, fov=args.fov, fps=args.fps)
     cfg.validate()
-    if args.mesh and args.mesh_resolution < 2:
-        raise MitnerfError(f"--mesh-resolution must be at least 2, got {args.mesh_resolution}; use 128")
-    ckpt = Path(args.checkpoint)
-    if not ckpt.is_dir():
-        raise MitnerfError(f"checkpoint folder {ckpt} does not exist; pass the --out folder of `mitnerf fit`")
-    model = load_checkpoint(ckpt, args.backend)
-    if model.backend.model.dim != 3:
-        raise MitnerfError(f"{ckpt} holds a 2D field (its views are 1D images): `mitnerf video` and mesh "
-                           "extraction need a 3D checkpoint; train one on a 3D dataset "
-                           "(`mitnerf dataset --scene vase --out DIR`, then `mitnerf fit --data DIR --out CKPT`)")
-    out = Path(args.out)
-    video = orbit_video(model.backend, cfg, out, tuple(model.model_cfg.render.background))
-    for path in video.paths.values():
-        print(f"wrote {path}")
-    if args.mesh:
-        write_mesh_outputs(model, out, level, args.mesh_resolution, args.chamfer_points, cfg)
+    model, _ = load_checkpoint(args.checkpoint, args.backend, dim=3, need="`mitnerf video` (a 360 degree orbit)")
+    target = Output(args.out, "video", args.overwrite)
+    with target.staged() as tmp:
+        video = orbit_video(model.backend, cfg, tmp, tuple(model.recipe.model.render.background))
+        if args.mesh:
+            write_mesh_outputs(model, tmp, level, args.mesh_resolution, args.chamfer_points, cfg)
+    for name in ("color.gif", "color.mp4", "depth.gif", "depth.mp4", "mesh.ply", "mesh.png", "chamfer.json"):
+        if (target.path / name).exists():
+            print(f"wrote {target.path / name}")
     print(video.summary())
     return 0
 
 
 def write_mesh_outputs(model, out: Path, level, resolution: int, n_points: int, cfg, progress: bool = True) -> dict:
     """``mesh.ply``, ``mesh.png`` and (with a ground truth) ``chamfer.json``; prints what it found."""
-    from ..geometry import chamfer_distance, extract_mesh
-    from ..viz.meshes import plot_mesh_comparison
-
     try:
         mesh = extract_mesh(model.backend.density, model.bound, resolution, level, progress=progress)
     except MitnerfError as exc:
-        raise MitnerfError(f"the videos are in {out}, but the mesh failed: {exc}; pass that level with "
+        raise MitnerfError(f"the mesh failed (nothing was written): {exc}; pass that level with "
                            "--level (or --level auto), or skip the mesh with --no-mesh") from None
-    ply = mesh.save(out / "mesh.ply")
-    print(f"wrote {ply}: {len(mesh.vertices)} vertices, {len(mesh.faces)} faces at density level "
+    mesh.save(out / "mesh.ply")
+    print(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.faces)} faces at density level "
           f"{mesh.level:.3g} ({resolution}^3 grid in {mesh.info['seconds']:.3g} s)")
     truth, texture = ground_truth(model.dataset_meta)
     result = {"level": mesh.level, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}
@@ -123,7 +116,6 @@ def write_mesh_outputs(model, out: Path, level, resolution: int, n_points: int, 
         (out / "chamfer.json").write_text(json.dumps(result, indent=1))
         note = str(c)
         print(f"{note} against {truth.name}")
-    png = plot_mesh_comparison(mesh, truth, out / "mesh.png", texture, note=note, elevation=cfg.elevation,
-                               distance=cfg.radius, fov=cfg.fov)
-    print(f"wrote {png}")
+    plot_mesh_comparison(mesh, truth, out / "mesh.png", texture, note=note, elevation=cfg.elevation,
+                         distance=cfg.radius, fov=cfg.fov)
     return result

@@ -20,6 +20,20 @@ SPLITS = ("train", "val", "test")
 
 
 @dataclass
+class RaySet:
+    """Every pixel of some views as a ray, flat (what training draws its batches from)."""
+
+    origins: np.ndarray     # [P, D]
+    directions: np.ndarray  # [P, D] unit
+    target: np.ndarray      # [P, 3] display-space colour over the background
+    depth: np.ndarray       # [P] distance along the ray, 0 where unknown or a miss
+    hit: np.ndarray         # [P] 1.0 where the depth is known (the ray hits), else 0.0
+
+    def __len__(self) -> int:
+        return len(self.origins)
+
+
+@dataclass
 class Split:
     """The views of one split, all arrays ``[n, H, W, ...]``."""
 
@@ -57,10 +71,34 @@ class Split:
     def __len__(self) -> int:
         return len(self.cameras)
 
+    @classmethod
+    def concatenate(cls, parts: list["Split"]) -> "Split":
+        """The views of several splits of one camera model, in order."""
+        if len(parts) == 1:
+            return parts[0]
+        c = parts[0].cameras
+        cat = lambda name: (None if getattr(parts[0], name) is None
+                            else np.concatenate([getattr(p, name) for p in parts]))
+        cams = Cameras(np.concatenate([p.cameras.poses for p in parts]), c.focal, c.height, c.width)
+        return cls(cams, cat("color"), cat("alpha"), cat("depth"), cat("mask"), cat("linear"))
+
     def target(self, background=(0.0, 0.0, 0.0)) -> np.ndarray:
         """Colour composited over ``background`` (display space), ``[n, H, W, 3]``."""
         bg = np.asarray(background, np.float32)
         return self.color + (1.0 - self.alpha[..., None]) * bg
+
+    def rays(self, background) -> RaySet:
+        """Every pixel of the split as a ray, with its colour over ``background`` and its depth."""
+        o, d = self.cameras.rays()
+        D = o.shape[-1]
+        target = self.target(background).reshape(-1, 3)
+        if self.depth is not None:
+            hit = (self.mask if self.mask is not None else np.isfinite(self.depth)).reshape(-1)
+            depth = np.where(hit, self.depth.reshape(-1), 0.0)
+        else:
+            hit, depth = np.zeros(len(target), bool), np.zeros(len(target))
+        return RaySet(o.reshape(-1, D).astype(np.float32), d.reshape(-1, D).astype(np.float32),
+                      target.astype(np.float32), depth.astype(np.float32), hit.astype(np.float32))
 
     def subset(self, index) -> "Split":
         pick = lambda a: None if a is None else a[index]
@@ -88,6 +126,21 @@ class Dataset:
     @property
     def dim(self) -> int:
         return next(iter(self.splits.values())).cameras.dim
+
+    @property
+    def bound(self) -> float:
+        """Half-extent that normalises positions: the object's radius plus 10 %. From the
+        outline (2D datasets rendered here), the unit sphere (3D objects here), or for
+        foreign data the median camera distance minus the near plane."""
+        meta = self.meta
+        if "polygon" in meta:
+            r = float(np.linalg.norm(np.asarray(meta["polygon"]), axis=1).max())
+        elif meta.get("kind") == "3d":
+            r = 1.0
+        else:
+            cams = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in self.splits.values()])
+            r = max(float(np.median(cams)) - self.near, 0.5)
+        return 1.1 * r
 
     @property
     def background(self) -> tuple[float, float, float]:

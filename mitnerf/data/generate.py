@@ -8,10 +8,22 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .. import __version__
+from ..scenes.gt_render import RenderSettings, exact_depth, render_color
 from ..scenes.registry import SceneInfo
-from ..scenes.render import RenderSettings, render_views
+from .cameras import Cameras
 from .dataset import Dataset, Split, bounds_from_cameras
 from .rig import RigConfig, make_rig
+
+
+def render_cameras(mi_scene, cams: Cameras, settings: RenderSettings) -> Split:
+    """Ground truth of every view of ``cams``: colour, coverage, exact depth and mask."""
+    if len(cams) == 0:
+        H, W = cams.height, cams.width
+        z = np.zeros((0, H, W), np.float32)
+        return Split.from_linear(cams, np.zeros((0, H, W, 3), np.float32), z, z, z.astype(bool))
+    rgb, alpha = render_color(mi_scene, cams.mitsuba_frames(), cams.fov, cams.height, cams.width, settings)
+    depth, mask = exact_depth(mi_scene, *cams.rays())
+    return Split.from_linear(cams, rgb, alpha, depth, mask)
 
 
 def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderSettings | None = None,
@@ -33,14 +45,9 @@ def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderS
             parts = []
             for start in range(0, len(c), chunk):
                 sub = c.subset(slice(start, start + chunk))
-                parts.append(render_views(mi_scene, sub, dataclasses.replace(render, seed=render.seed + start)))
+                parts.append(render_cameras(mi_scene, sub, dataclasses.replace(render, seed=render.seed + start)))
                 bar.update(len(sub))
-            cat = lambda attr, shape: (np.concatenate([getattr(p, attr) for p in parts])
-                                       if parts else np.zeros(shape, np.float32))
-            H, W = c.height, c.width
-            splits[name] = Split.from_linear(
-                c, cat("rgb", (0, H, W, 3)), cat("alpha", (0, H, W)),
-                cat("depth", (0, H, W)), cat("mask", (0, H, W)).astype(bool))
+            splits[name] = Split.concatenate(parts) if parts else render_cameras(mi_scene, c, render)
     near, far = bounds_from_cameras(list(cams.values()), scene.radius)
     meta = {"scene": scene.name, "kind": scene.kind, "near": near, "far": far,
             "background": [0.0] * 3 if scene.kind == "2d" else [1.0] * 3,

@@ -1,48 +1,48 @@
-"""Experiment ``pixelnerf``: a 2D pixelNeRF against NeRF with 1, 3, 5 and 9 input views.
+"""pixelNeRF in 2D against NeRF with 1, 3, 5 and 9 input views (NeRF2D's experiment).
 
 **Question.** pixelNeRF (Yu et al. 2021) learns a prior across scenes, so with one to
 three views it should beat a NeRF fitted to those views alone; with more views the
-per-scene NeRF should catch up. Does that hold in 2D, on CPU-sized budgets?
+per-scene NeRF should catch up (the pixelNeRF paper's DTU table; NeRF2D's figures).
 
-**Protocol.**
+**Protocol.** pixelNeRF (:mod:`mitnerf.fields.pixelnerf`, the ``pixelnerf-2d`` recipe,
+:mod:`mitnerf.train.pixelnerf`) is trained on ``n_outlines`` procedural outlines
+(:mod:`mitnerf.scenes.procedural`) plus ``extra_scenes``, once with a frozen random encoder
+(as NeRF2D) and once with a trained one. **bunny** and **tu** are never trained on: for
+every ``k`` in ``ks`` and every draw (``draws``: the ``k`` views nearest an even spread,
+starting from a different camera each draw) pixelNeRF reads those ``k`` views, and a
+NeRF (the ``vanilla-2d`` recipe, ``nerf_iters`` steps, seed = draw) trains on exactly
+them; both are scored on the same evenly spaced, noise-free test views. pixelNeRF is
+also scored on held-out views of ``n_seen`` training outlines and on ``n_unseen`` new ones.
 
-* pixelNeRF (:mod:`mitnerf.fields.pixelnerf`) is trained on ``n_outlines`` procedural
-  star-shaped outlines (:mod:`.pixelnerf_data`) plus ``extra_scenes`` (the square
-  scenes), ``train_views`` random noisy views each; each step uses 1-9 random views of
-  one scene as input and rays of its other views as targets. Two variants: a frozen
-  random encoder (as NeRF2D) and a trained one, same budget each.
-* **bunny** and **tu** are never trained on. Each is rendered with ``eval_train_views``
-  random noisy views; for every ``k`` in ``ks`` the ``k`` views nearest an even spread
-  (:func:`.pixelnerf_data.pick_views`) are pixelNeRF's input and the *whole* training set
-  of a NeRF (``mitnerf.train.presets.preset(field, 2)``, ``nerf_iters`` steps). Both are
-  scored on the same ``eval_test_views`` evenly spaced, noise-free test views.
-* pixelNeRF alone is also scored on held-out views of ``n_seen`` training outlines and on
-  ``n_unseen`` outlines it never saw (same ``k`` views rule).
-
-Outputs: ``results.csv`` (one row per method, scene, k), ``training.csv`` (pixelNeRF
-loss curves) and ``training.png`` (the curves drawn), ``psnr_vs_views.png``,
-``strips_<scene>.png`` (test views of each method beside ground truth),
-``density_<scene>.png`` and ``report.md``.
+Writes ``results.csv``, ``training.csv``, ``psnr_vs_views.png`` (mean and spread over
+draws), ``strips_<scene>.png``, ``density_<scene>.png`` and ``report.md``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..data.cache import cached_dataset
+from ..data.generate import make_dataset
+from ..data.rig import RigConfig, noise_preset
 from ..fields.pixelnerf import PixelNeRFConfig
-from .common import cached_dataset, markdown_table, write_csv, write_report
-from .pixelnerf_data import outline_dataset, outline_rig, pick_views, scene_views
-from .pixelnerf_train import PixelRun, PixelTrainConfig, context_of, density_grid, render_rays, train
+from ..scenes.procedural import outline_scene
+from ..scenes.registry import get_scene
+from ..train.metrics import depth_error, psnr, ssim
+from ..train.pixelnerf import PixelTrainer, pick_views, scene_views
+from ..train.recipes import get_recipe
+from ..viz.panels import density_panel, pyplot, save
+from ..viz.strips import views_strip
+from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
 
 
 @dataclass
-class PixelNeRFExperimentConfig:
-    """Sizes and budgets of the experiment (defaults: the full run, <= 15 min on 2 cores)."""
+class Config:
+    """Sizes and budgets (defaults: the full run, about 15 minutes on 2 cores)."""
 
     n_outlines: int = 48
     """Procedural outlines pixelNeRF is trained on."""
@@ -51,7 +51,7 @@ class PixelNeRFExperimentConfig:
     train_views: int = 24
     """Random noisy views per training scene."""
     outline_test_views: int = 8
-    """Evenly spaced test views per outline (held-out views)."""
+    """Evenly spaced test views per outline."""
     n_seen: int = 4
     """Training outlines whose held-out views are scored."""
     n_unseen: int = 4
@@ -64,246 +64,208 @@ class PixelNeRFExperimentConfig:
     """Evenly spaced, noise-free test views of each evaluation scene."""
     ks: tuple = (1, 3, 5, 9)
     """Numbers of input views compared."""
+    draws: int = 3
+    """Input-view draws per (scene, k): the spread of every figure."""
     encoders: tuple = ("frozen", "trained")
     """pixelNeRF variants."""
     model: PixelNeRFConfig = field(default_factory=PixelNeRFConfig)
     """pixelNeRF architecture (``encoder`` is set per variant)."""
-    pixel: PixelTrainConfig = field(default_factory=lambda: PixelTrainConfig(iters=8000, time_budget=150.0))
-    """pixelNeRF training, per variant: 8000 steps (~2 min unloaded), cut at 150 s on a busy
-    machine. The loss drops sharply after ~2500 steps, when the field starts to use agreement
-    between views; runs cut before that are far worse with many views."""
-    field: str = "vanilla"
-    """Field family of the NeRF baselines (``mitnerf.train.presets``)."""
+    k_range: tuple = (1, 9)
+    """Input views per pixelNeRF training step, drawn from this inclusive range."""
+    pixel_iters: int | None = None
+    """pixelNeRF steps per variant (None: the recipe's)."""
+    pixel_budget: float | None = None
+    """pixelNeRF seconds per variant (None: the recipe's)."""
     nerf_iters: int = 1000
-    """Steps of each NeRF baseline (the preset's learning-rate schedule over these steps)."""
-    nerf_batch_rays: int | None = 256
-    """Rays per NeRF step; None keeps the preset's (1024, tuned for 50 views). With 9 views of
-    bunny, 1000 x 256 rays reached 22.0 dB in 42 s where 300 x 1024 reached 20.5 dB."""
-    nerf_time_budget: float | None = 60.0
-    """Seconds of training per NeRF baseline at most (None: only ``nerf_iters``)."""
-    progress: bool = True
-    """Progress bars."""
+    """Steps of each NeRF baseline."""
+    nerf_batch_rays: int = 256
+    """Rays per NeRF step (1 to 9 views hold 100 to 900 rays)."""
+    nerf_time_budget: float = 60.0
+    """Seconds of each NeRF baseline at most."""
+    seed: int = 0
+    """Seed of the outlines, the rigs and the trainings."""
 
 
-def quick_config() -> PixelNeRFExperimentConfig:
-    """``--quick``: the same comparison, much shorter (about 2 minutes)."""
-    return PixelNeRFExperimentConfig(n_outlines=12, n_seen=2, n_unseen=2, eval_test_views=8,
-                                     pixel=PixelTrainConfig(iters=4000, time_budget=22.0), nerf_iters=200,
-                                     nerf_time_budget=4.0)
+def quick(seed: int = 0) -> Config:
+    return Config(n_outlines=12, n_seen=2, n_unseen=2, eval_test_views=8, draws=1, pixel_iters=4000,
+                  pixel_budget=22.0, nerf_iters=200, nerf_time_budget=4.0, seed=seed)
 
 
-def tiny_config() -> PixelNeRFExperimentConfig:
-    """Smallest run that still writes every file (the test suite)."""
-    return PixelNeRFExperimentConfig(n_outlines=2, extra_scenes=(), train_views=6, outline_test_views=4, n_seen=1,
-                                     n_unseen=1, eval_scenes=("bunny",), eval_train_views=8, eval_test_views=4,
-                                     ks=(1, 3), model=PixelNeRFConfig(channels=8, dilations=(1, 2), width=32),
-                                     pixel=PixelTrainConfig(iters=10, batch_rays=64, n_samples=24, k_range=(1, 3)),
-                                     nerf_iters=8, nerf_time_budget=None, progress=False)
+def tiny(seed: int = 0) -> Config:
+    """The smallest run that writes every file (the test suite)."""
+    return Config(n_outlines=2, extra_scenes=(), train_views=6, outline_test_views=4, n_seen=1, n_unseen=1,
+                  eval_scenes=("bunny",), eval_train_views=8, eval_test_views=4, ks=(1, 3), draws=1, k_range=(1, 3),
+                  model=PixelNeRFConfig(channels=8, dilations=(1, 2), width=32), pixel_iters=10, nerf_iters=8,
+                  seed=seed)
 
 
-# ---------------------------------------------------------------------- data
-def training_scenes(cfg: PixelNeRFExperimentConfig, seed: int):
-    """(pixelNeRF's training views, the outlines' datasets for held-out scoring)."""
-    from ..data.generate import make_dataset
-    from ..scenes.registry import get_scene
-
-    sets = [outline_dataset(1000 * seed + i, cfg.train_views, cfg.outline_test_views) for i in range(cfg.n_outlines)]
-    names = [f"outline{1000 * seed + i}" for i in range(cfg.n_outlines)]
-    for j, name in enumerate(cfg.extra_scenes):
-        sets.append(make_dataset(get_scene(name), outline_rig(cfg.train_views, 0, 77 + j), progress=False))
-        names.append(name)
-    return [scene_views(ds, "train", n) for ds, n in zip(sets, names)], sets[:cfg.n_outlines]
+def rig(n_train: int, n_test: int, seed: int) -> RigConfig:
+    return RigConfig(dim=2, n_train=n_train, n_val=0, n_test=n_test, resolution=100, seed=seed, **noise_preset(1.0))
 
 
-def eval_dataset(cfg: PixelNeRFExperimentConfig, scene: str, seed: int):
-    rig = dataclasses.replace(outline_rig(cfg.eval_train_views, cfg.eval_test_views, 100 + seed), n_val=2)
-    return cached_dataset(scene, rig)
+def outline(cfg: Config, i: int):
+    s = 1000 * cfg.seed + i
+    return make_dataset(outline_scene(s), rig(cfg.train_views, cfg.outline_test_views, s), progress=False)
 
 
-# ---------------------------------------------------------------------- scoring
-def score(pred: dict, ds, split: str = "test") -> dict:
-    from ..train.metrics import depth_error, psnr, ssim
-
-    s = ds[split]
+def score(pred: dict, ds) -> dict:
+    s = ds["test"]
     target = s.target(ds.background)
-    out = {"psnr": psnr(pred["rgb"], target), "ssim": ssim(pred["rgb"], target)}
-    if s.depth is not None:
-        out["depth_error"] = depth_error(pred["depth"], pred["opacity"], s.depth, s.mask)
-    return out
+    return {"psnr": psnr(pred["rgb"], target), "ssim": ssim(pred["rgb"], target),
+            "depth_error": depth_error(pred["depth"], pred["opacity"], s.depth, s.mask), "status": "ok"}
 
 
-def render_pixelnerf(run: PixelRun, ds, views: np.ndarray) -> dict:
-    """Test views of ``ds`` rendered from its training views ``views``."""
-    sv = scene_views(ds, "train")
-    ctx = context_of(run.field, sv, views)
-    test = ds["test"]
-    o, d = test.cameras.rays()
-    t0 = time.perf_counter()
-    out = render_rays(run, ctx, o.reshape(-1, 2), d.reshape(-1, 2), ds.near, ds.far)
+def render_test(trainer: PixelTrainer, ds, views) -> tuple[dict, object]:
+    """Test views of ``ds`` rendered from its training views ``views``, and the context."""
+    ctx = scene_views(ds).context(trainer.field, views)
+    o, d = ds["test"].cameras.rays()
+    out = trainer.render(ctx, o.reshape(-1, 2), d.reshape(-1, 2), ds.near, ds.far)
     shape = o.shape[:-1]
     return {"rgb": out["rgb"].reshape(*shape, 3), "depth": out["depth"].reshape(shape),
-            "opacity": out["opacity"].reshape(shape), "time": (time.perf_counter() - t0) / max(len(test), 1)}
+            "opacity": out["opacity"].reshape(shape)}, ctx
 
 
-def fit_nerf(cfg: PixelNeRFExperimentConfig, ds, seed: int):
-    from ..train.presets import preset
-    from ..train.trainer import TrainingFailed, evaluate, fit
-
-    mc, tc = preset(cfg.field, 2)
-    tc.iters, tc.time_budget, tc.val_every, tc.seed, tc.progress = (cfg.nerf_iters, cfg.nerf_time_budget, 0, seed,
-                                                                    cfg.progress)
-    if cfg.nerf_batch_rays:
-        tc.batch_rays = cfg.nerf_batch_rays
-    try:
-        run = fit(ds, mc, tc)
-    except TrainingFailed as exc:
-        return None, {"psnr": float("nan"), "note": str(exc)}
-    ev = evaluate(run, ds, "test")
-    return run, {"psnr": ev["psnr"], "ssim": ev["ssim"], "depth_error": ev.get("depth_error", float("nan")),
-                 "train_time": run.train_time, "steps": run.steps, "renders": ev["renders"],
-                 "render_time_per_view": ev["render_time_per_view"]}
+def picks(ds, k: int, draw: int, draws: int) -> np.ndarray:
+    """The ``k`` input views of draw ``draw`` (each draw starts the even spread at another camera)."""
+    return pick_views(ds["train"].cameras, k, start=draw * len(ds["train"]) // max(draws, 1))
 
 
-# ---------------------------------------------------------------------- the experiment
-def run(out: Path, quick: bool = False, seed: int = 0, config: PixelNeRFExperimentConfig | None = None) -> Path:
-    """Run the experiment into ``out``; returns the path of ``report.md``."""
-    from tqdm.auto import tqdm
-
-    from ..viz.training import density_grid as nerf_density_grid
-    from .pixelnerf_figures import plot_psnr, plot_training, save_densities, save_strips
-
-    cfg = config or (quick_config() if quick else PixelNeRFExperimentConfig())
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    t_start = time.perf_counter()
-    scenes, outlines = training_scenes(cfg, seed)
-    unseen = [outline_dataset(1000 * seed + 500 + i, cfg.train_views, cfg.outline_test_views)
-              for i in range(cfg.n_unseen)]
-    evals = {name: eval_dataset(cfg, name, seed) for name in cfg.eval_scenes}
-    picks = {name: {k: pick_views(ds["train"].cameras, k) for k in cfg.ks} for name, ds in evals.items()}
-    rows, hist_rows, renders, densities = [], [], {}, {}
-    bound = cfg.model.bound
-
-    runs = {}
+def run(cfg: Config, out: Path) -> list[dict]:
+    outlines = [outline(cfg, i) for i in range(cfg.n_outlines)]
+    extra = [make_dataset(get_scene(n), rig(cfg.train_views, 0, 77 + j), progress=False)
+             for j, n in enumerate(cfg.extra_scenes)]
+    unseen = [outline(cfg, 500 + i) for i in range(cfg.n_unseen)]
+    evals = {n: cached_dataset(n, dataclasses.replace(rig(cfg.eval_train_views, cfg.eval_test_views, 100 + cfg.seed),
+                                                      n_val=2)) for n in cfg.eval_scenes}
+    train_sets = [scene_views(ds, name=f"outline{i}") for i, ds in enumerate(outlines)]
+    train_sets += [scene_views(ds, name=n) for ds, n in zip(extra, cfg.extra_scenes)]
+    recipe = get_recipe("pixelnerf-2d").override(iters=cfg.pixel_iters, time_budget=cfg.pixel_budget, seed=cfg.seed)
+    rows, history, renders, densities, trainers = [], [], {}, {}, {}
     for enc in cfg.encoders:
-        mcfg = dataclasses.replace(cfg.model, encoder=enc)
-        pcfg = dataclasses.replace(cfg.pixel, seed=seed, progress=cfg.progress)
-        runs[enc] = r = train(mcfg, scenes, pcfg)
-        hist_rows += [{"encoder": enc, "step": s, "time": t, "loss": l}
-                      for s, t, l in zip(r.history["step"], r.history["time"], r.history["loss"])]
-    jobs = [(name, ds, "eval") for name, ds in evals.items()]
-    jobs += [(f"seen{i}", ds, "seen outline") for i, ds in enumerate(outlines[:cfg.n_seen])]
-    jobs += [(f"unseen{i}", ds, "unseen outline") for i, ds in enumerate(unseen)]
-    for enc, r in runs.items():
-        for name, ds, group in tqdm(jobs, desc=f"score pixelNeRF ({enc})", disable=not cfg.progress, leave=False):
+        t = PixelTrainer(dataclasses.replace(cfg.model, encoder=enc), recipe.copy(), train_sets, cfg.k_range).train()
+        trainers[enc] = t
+        history += [{"encoder": enc, "step": s, "time": tt, "loss": v} for s, tt, v in
+                    zip(t.state.history["step"], t.state.history["time"], t.state.history["loss"])]
+        method = f"pixelNeRF ({enc})"
+        jobs = [(n, ds, "eval") for n, ds in evals.items()] + [(f"seen{i}", ds, "seen outline") for i, ds in
+                                                               enumerate(outlines[:cfg.n_seen])]
+        jobs += [(f"unseen{i}", ds, "unseen outline") for i, ds in enumerate(unseen)]
+        for name, ds, group in jobs:
             for k in cfg.ks:
-                views = picks[name][k] if name in picks else pick_views(ds["train"].cameras, k)
-                pred = render_pixelnerf(r, ds, views)
-                rows.append({"method": f"pixelNeRF ({enc})", "scene": name, "group": group, "k": k, **score(pred, ds),
-                             "train_time": r.train_time, "steps": r.steps, "render_time_per_view": pred["time"]})
-                if group == "eval":
-                    renders[(name, k, f"pixelNeRF ({enc})")] = pred["rgb"]
-                    ctx = context_of(r.field, scene_views(ds, "train"), views)
-                    densities[(name, k, f"pixelNeRF ({enc})")] = density_grid(r, ctx, bound, 96)
-    nerf_label = f"NeRF ({cfg.field})"
+                for draw in range(cfg.draws if group == "eval" else 1):
+                    pred, ctx = render_test(t, ds, picks(ds, k, draw, cfg.draws))
+                    rows.append({"method": method, "scene": name, "group": group, "k": k, "draw": draw,
+                                 **score(pred, ds), "train_time": t.state.train_time, "steps": t.state.step})
+                    if group == "eval" and draw == 0:
+                        renders[(name, k, method)] = pred["rgb"]
+                        densities[(name, k, method)] = t.density(ctx)
     for name, ds in evals.items():
         for k in cfg.ks:
-            sub = ds.sparse(picks[name][k])
-            nrun, m = fit_nerf(cfg, sub, seed)
-            rows.append({"method": nerf_label, "scene": name, "group": "eval", "k": k,
-                         **{key: v for key, v in m.items() if key != "renders"}})
-            if nrun is not None:
-                renders[(name, k, nerf_label)] = m["renders"]["rgb"]
-                densities[(name, k, nerf_label)] = nerf_density_grid(nrun.backend, bound, 2, 96)
-    total = time.perf_counter() - t_start
-
+            for draw in range(cfg.draws):
+                nerf = get_recipe("vanilla-2d").override(iters=cfg.nerf_iters, time_budget=cfg.nerf_time_budget,
+                                                        batch_rays=cfg.nerf_batch_rays, val_every=0, seed=draw)
+                row, r, rec = train_row(ds.sparse(picks(ds, k, draw, cfg.draws)), nerf, {"method": "NeRF", "scene": name,
+                                                                             "group": "eval", "k": k, "draw": draw})
+                rows.append(row)
+                if draw == 0:
+                    renders[(name, k, "NeRF")], densities[(name, k, "NeRF")] = rec.renders["rgb"], r.backend.density
     write_csv(out / "results.csv", rows)
-    write_csv(out / "training.csv", hist_rows)
-    methods = [f"pixelNeRF ({e})" for e in cfg.encoders] + [nerf_label]
-    plot_psnr(rows, methods, cfg.ks, out / "psnr_vs_views.png")
-    plot_training(hist_rows, out / "training.png")
-    for name, ds in evals.items():
-        save_strips(ds["test"].target(ds.background), renders, name, cfg.ks, methods, out / f"strips_{name}.png")
-        save_densities(densities, name, cfg.ks, methods, ds.meta.get("polygon"), bound, out / f"density_{name}.png")
-    return _report(out, cfg, rows, methods, runs, total, seed, quick)
+    write_csv(out / "training.csv", history)
+    methods = [f"pixelNeRF ({e})" for e in cfg.encoders] + ["NeRF"]
+    summary = summarise(rows, ["group", "scene", "method", "k"], ("psnr", "ssim"))
+    _figures(cfg, summary, history, renders, densities, evals, methods, out)
+    _report(cfg, summary, trainers, methods, out)
+    return rows
 
 
-def _report(out: Path, cfg, rows, methods, runs, total, seed, quick) -> Path:
-    ev = [r for r in rows if r["group"] == "eval"]
-    table = []
-    for name in cfg.eval_scenes:
+def _figures(cfg, summary, history, renders, densities, evals, methods, out) -> None:
+    plt = pyplot()
+    panels = list(cfg.eval_scenes) + ["seen outline", "unseen outline"]
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4), squeeze=False)
+    for ax, panel in zip(axes[0], panels):
         for m in methods:
-            line = {"scene": name, "method": m}
-            for k in cfg.ks:
-                hit = [r for r in ev if r["scene"] == name and r["method"] == m and r["k"] == k]
-                line[f"k={k}"] = f"{hit[0]['psnr']:.2f}" if hit else ""
-            table.append(line)
-    diff = []
-    for name in cfg.eval_scenes:
-        nerf = {r["k"]: r["psnr"] for r in ev if r["scene"] == name and r["method"] == methods[-1]}
-        for m in methods[:-1]:
-            line = {"scene": name, "pixelNeRF - NeRF": m}
-            for k in cfg.ks:
-                p = [r["psnr"] for r in ev if r["scene"] == name and r["method"] == m and r["k"] == k]
-                if p and k in nerf:
-                    line[f"k={k}"] = f"{p[0] - nerf[k]:+.2f}" if np.isfinite(nerf[k]) else "NeRF failed"
-                else:
-                    line[f"k={k}"] = ""
-            diff.append(line)
-    gen = []
-    for m in methods[:len(cfg.encoders)]:
-        for group in ("seen outline", "unseen outline"):
-            line = {"method": m, "scenes": group}
-            for k in cfg.ks:
-                v = [r["psnr"] for r in rows if r["method"] == m and r["group"] == group and r["k"] == k]
-                line[f"k={k}"] = f"{np.mean(v):.2f}" if v else ""
-            gen.append(line)
-    train_names = ", ".join(cfg.extra_scenes) or "none"
-    budgets = (f"pixelNeRF: {cfg.pixel.iters} steps or {cfg.pixel.time_budget} s per variant, "
-               f"{cfg.pixel.batch_rays} rays x {cfg.pixel.n_samples} samples per step, k drawn from "
-               f"{cfg.pixel.k_range[0]}..{cfg.pixel.k_range[1]}; "
-               + "; ".join(f"{e}: {r.steps} steps in {r.train_time:.0f} s" for e, r in runs.items())
-               + f". NeRF ({cfg.field} preset, {cfg.nerf_batch_rays or 'preset'} rays per step): "
-               + f"{cfg.nerf_iters} steps" + (f" or {cfg.nerf_time_budget} s" if cfg.nerf_time_budget else "")
-               + " per fit.")
-    nerf_note = ", ".join(f"{r['scene']} k={r['k']}: {r.get('steps', '?')} steps / "
-                          f"{float(r.get('train_time', 0)):.0f} s" for r in ev if r["method"] == methods[-1])
-    verdict = []
-    for name in cfg.eval_scenes:
-        cells = {k: [d[f"k={k}"] for d in diff if d["scene"] == name] for k in cfg.ks}
-        ahead = [k for k in cfg.ks if any(c.startswith("+") and float(c) > 0 or c == "NeRF failed" for c in cells[k])]
-        behind = [k for k in cfg.ks if k not in ahead]
-        ks_text = lambda ks: ", ".join(map(str, ks)) or "none"
-        verdict.append(f"* {name}: a pixelNeRF variant is ahead of NeRF with k = {ks_text(ahead)}; "
-                       f"NeRF is level or ahead with k = {ks_text(behind)}.")
-    sections = [
-        ("Set-up", f"""{'Quick run (`--quick`): small budgets, read as a smoke test. ' if quick else ''}Seed {seed};
-total wall time {total:.0f} s on {runs[next(iter(runs))].train_cfg.threads} threads.
+            pts = [(s["k"], s["psnr"], s["psnr_std"]) for s in summary if s["method"] == m and
+                   (s["scene"] == panel if panel in cfg.eval_scenes else s["group"] == panel)]
+            if pts:
+                ks = sorted({p[0] for p in pts})
+                y = [np.mean([p[1] for p in pts if p[0] == k]) for k in ks]
+                e = [np.mean([p[2] for p in pts if p[0] == k]) for k in ks]
+                ax.errorbar(ks, y, yerr=e, fmt="o-", capsize=2, label=m)
+        ax.set(title=panel, xlabel="input views k", xticks=list(cfg.ks))
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("test PSNR [dB]")
+    axes[0][0].legend(fontsize=8)
+    save(fig, out / "psnr_vs_views.png")
+    for name, ds in evals.items():
+        target = ds["test"].target(ds.background)
+        fig, axs = plt.subplots(len(cfg.ks), 1, figsize=(1.0 + 0.28 * target.shape[0], 1.9 * len(cfg.ks)),
+                                squeeze=False)
+        gap = np.ones((6, target.shape[0] * 4, 3), np.float32)
+        for ax, k in zip(axs[:, 0], cfg.ks):
+            imgs = [target] + [renders.get((name, k, m), np.full_like(target, 0.5)) for m in methods]
+            ax.imshow(np.concatenate(sum(([views_strip(np.clip(i, 0, 1)), gap] for i in imgs), [])[:-1], 0),
+                      aspect="auto", interpolation="nearest")
+            ax.set_yticks([(target.shape[1] + 6) * j + target.shape[1] / 2 for j in range(len(imgs))],
+                          ["ground truth"] + methods, fontsize=7)
+            ax.set_xticks([])
+            ax.set_title(f"{name}, k = {k} input views", fontsize=9)
+        save(fig, out / f"strips_{name}.png")
+        fig, axs = plt.subplots(len(cfg.ks), len(methods), figsize=(2.6 * len(methods), 2.5 * len(cfg.ks)),
+                                squeeze=False)
+        for i, k in enumerate(cfg.ks):
+            for j, m in enumerate(methods):
+                density_panel(axs[i, j], densities[(name, k, m)], ds.bound, ds.meta.get("polygon"),
+                              m if i == 0 else "", res=96)
+                if j == 0:
+                    axs[i, j].set_ylabel(f"k = {k}")
+        save(fig, out / f"density_{name}.png", dpi=90)
+    fig, ax = plt.subplots(figsize=(5.5, 3.4))
+    for enc in dict.fromkeys(r["encoder"] for r in history):
+        t = np.array([r["time"] for r in history if r["encoder"] == enc], float)
+        loss = np.array([r["loss"] for r in history if r["encoder"] == enc], float)
+        w = min(10, len(loss))
+        if w:
+            ax.semilogy(t[w - 1:], np.convolve(loss, np.ones(w) / w, mode="valid"), label=f"{enc} encoder")
+    ax.set(xlabel="training time [s]", ylabel="MSE (running mean)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    save(fig, out / "training.png")
 
-* **Trained on:** {cfg.n_outlines} procedural star-shaped outlines
-  (seeds {1000 * seed}..{1000 * seed + cfg.n_outlines - 1}, random lights) and {train_names};
-  {cfg.train_views} random noisy views of 100 px each.
-  **Never trained on:** {', '.join(cfg.eval_scenes)} and {cfg.n_unseen} further outlines.
-* **Inputs:** for each k, the k of {cfg.eval_train_views} training views nearest an even spread; pixelNeRF
-  reads them as its context, the NeRF baseline trains on exactly them.
-* **Scored on:** {cfg.eval_test_views} evenly spaced, noise-free test views (PSNR over black).
-* **Budgets:** {budgets}
-* NeRF fits: {nerf_note}.
-* pixelNeRF field: {cfg.model.channels} channels x {len(cfg.model.dilations)} dilated conv layers
-  (dilations {cfg.model.dilations}) {'+ RGB ' if cfg.model.include_rgb else ''}-> {cfg.model.feature_size} features,
-  linear lookup, {cfg.model.view_layers} per-view + {cfg.model.head_layers} head layers of {cfg.model.width}."""),
-        ("PSNR against the number of input views",
-         "Test PSNR [dB] on scenes pixelNeRF never saw:\n\n" + markdown_table(table)
-         + "\nDifference to NeRF [dB] (positive: pixelNeRF ahead):\n\n" + markdown_table(diff)
-         + "\n" + "\n".join(verdict) + "\n"
-         + "\n![PSNR vs views](psnr_vs_views.png)\n"),
-        ("Generalisation within the training distribution",
-         "pixelNeRF on held-out views of training outlines and on unseen outlines (mean PSNR [dB]):\n\n"
+
+def _report(cfg, summary, trainers, methods, out) -> None:
+    ev = {(s["scene"], s["method"], s["k"]): s for s in summary if s["group"] == "eval"}
+    table = [{"scene": n, "method": m, **{f"k={k}": mean_std(ev[(n, m, k)], "psnr") for k in cfg.ks}}
+             for n in cfg.eval_scenes for m in methods]
+    diff, verdict = [], []
+    for n in cfg.eval_scenes:
+        ahead = set()
+        for m in methods[:-1]:
+            line = {"scene": n, "pixelNeRF - NeRF": m}
+            for k in cfg.ks:
+                d = ev[(n, m, k)]["psnr"] - ev[(n, "NeRF", k)]["psnr"]
+                line[f"k={k}"] = f"{d:+.2f}" if np.isfinite(d) else "NeRF failed"
+                if not np.isfinite(d) or d > 0:
+                    ahead.add(k)
+            diff.append(line)
+        verdict.append(f"* {n}: a pixelNeRF variant is ahead of NeRF with k = "
+                       f"{', '.join(str(k) for k in cfg.ks if k in ahead) or 'none'}; NeRF is level or ahead with "
+                       f"k = {', '.join(str(k) for k in cfg.ks if k not in ahead) or 'none'}.")
+    gen = [{"method": m, "scenes": g, **{f"k={k}": mean_std(s, "psnr") for k in cfg.ks
+                                         for s in summary if s["method"] == m and s["group"] == g and s["k"] == k}}
+           for m in methods[:-1] for g in ("seen outline", "unseen outline")]
+    steps = "; ".join(f"{e}: {t.state.step} steps in {t.state.train_time:.0f} s" for e, t in trainers.items())
+    write_report(out, "pixelNeRF in 2D against NeRF with few views", [
+        ("Set-up", f"pixelNeRF trained on {cfg.n_outlines} procedural outlines and {', '.join(cfg.extra_scenes) or 'no'} "
+                   f"named scenes ({cfg.train_views} noisy views each; recipe `pixelnerf-2d`: {steps}). Scored on "
+                   f"{', '.join(cfg.eval_scenes)} (never trained on): the k of {cfg.eval_train_views} views nearest "
+                   f"an even spread, {cfg.draws} draw(s) per k, {cfg.eval_test_views} test views. NeRF: recipe "
+                   f"`vanilla-2d`, {cfg.nerf_iters} steps or {cfg.nerf_time_budget:g} s of {cfg.nerf_batch_rays} rays "
+                   "on exactly the k views."),
+        ("PSNR against the number of input views", "Test PSNR [dB] (mean ± std over draws):\n\n"
+         + markdown_table(table) + "\nDifference of the means to NeRF [dB]:\n\n" + markdown_table(diff) + "\n"
+         + "\n".join(verdict) + "\n\n![PSNR vs views](psnr_vs_views.png)"),
+        ("Generalisation", "pixelNeRF on held-out views of training outlines and on unseen outlines:\n\n"
          + markdown_table(gen)),
         ("Test views", "\n".join(f"![{n}](strips_{n}.png)\n\n![density {n}](density_{n}.png)\n"
-                                 for n in cfg.eval_scenes)
-         + "\nEach strip: test views side by side (one column per view); rows: ground truth, then each method. "
-           "Density: log10(0.01 + sigma) with the true outline."),
-        ("Training", "![pixelNeRF loss](training.png)\n\nAll numbers: `results.csv`; loss curves: `training.csv`."),
-    ]
-    return write_report(out, "pixelNeRF in 2D against NeRF with few views", sections)
+                                 for n in cfg.eval_scenes) + "\n![training loss](training.png)"),
+    ])

@@ -1,276 +1,295 @@
 """Speed against accuracy: which model is enough for a scene, and what it costs.
 
-``python -m mitnerf sweep --out DIR`` (or ``benchmarks/pareto.py``, or
-:func:`run_sweep`) trains a grid of configurations on a few scenes and writes, into
-``DIR``:
+``mitnerf sweep --out DIR`` (or ``benchmarks/pareto.py``) trains a grid of configurations
+and writes into ``DIR``:
 
-* ``sweep.csv``: one line per run (``COLUMNS`` in :mod:`.sweep_exec`): scene, field
-  family, size, samples, backend, budget, test PSNR and SSIM, ``wall_time`` (seconds of
-  ``fit``: training, kernel compilation and the final validation), ``train_time`` (the
-  trainer's clock: training steps only), steps, and the error of a run that failed;
-* ``sweep.md``: the table per scene, the Pareto front of each scene (the runs that no
-  faster run beats on test PSNR), and, when the torch reference ran, whether some
-  configuration reaches its PSNR in at most 1/100 of its time;
-* ``pareto.png``: test PSNR against wall time (log scale), one subplot per scene, one
-  marker shape per field family, one colour per backend, the front as a step line.
+* ``sweep.csv``: one line per run (``COLUMNS``): scene, family, size, samples, backend,
+  budget, the :class:`~mitnerf.train.evaluate.RunRecord` figures, ``wall_time`` (the
+  clock around ``fit``: set-up, compilation, training), the host, and the run's recipe;
+* ``sweep.md``: per scene its Pareto front (the runs no faster run beats on test PSNR)
+  and its table, and whether some run reaches the torch reference's PSNR in 1/``SPEEDUP``
+  of its time; ``pareto.png``: PSNR against wall time, the front as a step line.
 
-The grid
---------
-A row is (scene, backend, field family, field arguments, render arguments, train
-arguments); its ``id`` is a hash of that row's canonical JSON. The default grid is
-``scenes x families x SIZES x SAMPLES x backends x BUDGETS``:
-
-* families: every family of ``mitnerf.fields.FIELDS`` with a preset
-  (``mitnerf.train.presets.preset_fields()``); each size and sample count edits the
-  family's preset for the scene's dimension;
-* backends: ``drjit``, plus ``torch`` where the family has a PyTorch twin
-  (``mitnerf.reference.fields.TORCH_FIELDS``);
-* one special row, the *torch reference*: the vanilla preset on torch for 600 s on bunny.
-
-To add a field family (say ``hashgrid``): register it in ``FIELDS`` and give it a preset;
-it joins the grid at its preset size. For several sizes add a line to ``SIZES`` (and to
-``QUICK_SIZES`` for a small one in quick mode), e.g.
-``"hashgrid": {"T14": dict(log2_hashmap_size=14), "T18": dict(log2_hashmap_size=18)}``.
-
-Budgets are ``"20s"`` (seconds of training; the learning-rate schedule follows the
-clock) or ``"500it"`` (steps). Scenes: 2D ones use 50 noisy train views of 100 px
-(seeded), 3D ones 25 views of 100 x 100 (3D runs cost ~100x more per view).
-``--quick`` shrinks everything (tiny rigs, one tiny model, a few steps) to a smoke test.
-
-Runs go to worker processes (``workers`` x ``threads`` should not exceed the cores) or,
-with ``executor='dask'`` and a scheduler address, to a Dask distributed cluster. Each
-result is appended to ``sweep.csv`` as it arrives; running the same command again skips
-the rows already there (``retry_failed`` also reruns those that failed). The report and
-the chart cover every record in ``sweep.csv``: give a quick sweep its own folder.
+The grid is ``scenes x families x SIZES x SAMPLES x backends x BUDGETS``, every run
+the family's recipe (:mod:`mitnerf.train.recipes`) with the size's settings; ``torch``
+runs the families with a twin at ``TORCH_SIZES``; one more row, the *reference*, is the
+``vanilla-2d`` recipe on torch for 600 s on the bunny. 2D scenes use 50 noisy views of
+100 px, 3D ones 25 of 100 x 100. Runs go to worker processes or a Dask cluster
+(:mod:`.pool`); each record is appended as it arrives, and running the same command
+again skips the rows already there (``retry_failed`` reruns the failed ones).
 """
 
 from __future__ import annotations
 
+import csv
 import dataclasses
+import io
 import json
+import math
+import os
+import socket
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import drjit as dr
+from tqdm.auto import tqdm
+
 from .._io import digest
+from .._variant import set_variant
+from ..data.cache import cached_dataset
+from ..data.rig import RigConfig, noise_preset
+from ..errors import ConfigError
+from ..scenes.objects3d import OBJECTS_3D
+from ..scenes.registry import SCENES_2D
+from ..train.fit import fit_and_evaluate
+from ..train.recipes import Recipe, recipe_for
+from ..viz.charts import plot_pareto
+from .pool import run_jobs
+from .report import markdown_table, num
 
-# ----------------------------------------------------------------------------- the grid
-SIZES: dict[str, dict[str, dict]] = {
-    # family: {size label: field_args overrides on the family's preset, or {dim: overrides}}
-    "vanilla": {"w32": dict(width=32), "preset": {}},
-    "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
-                       3: dict(resolution=65, initial_resolution=33, upsample_at=(200,))},
-             "preset": {}},
-    "hashgrid": {"T12": dict(log2_hashmap_size=12), "preset": {}},
-}
+SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
+         "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
+                            3: dict(resolution=65, initial_resolution=33, upsample_at=(200,))}, "recipe": {}},
+         "hashgrid": {"T12": dict(log2_hashmap_size=12), "recipe": {}}}
+"""Per family: size label -> overrides of its recipe (or ``{dim: overrides}``)."""
 SAMPLES = (32, 64, 128)
-"""Coarse samples per ray; a preset with a fine pass gets ``n_fine = samples // 2``."""
+"""Coarse samples per ray (a fine pass gets half as many)."""
 BUDGETS = ("3s", "10s", "30s")
-"""Training budget of every grid row."""
-TORCH_SIZES = ("preset",)
-"""Sizes that also run on the torch backend (the reference twin of every family)."""
+TORCH_SIZES = ("recipe",)
 REFERENCE = dict(scene="bunny", family="vanilla", backend="torch", budget="600s")
-"""The torch reference (the family's preset, unchanged): the yardstick of ``sweep.md``."""
-
-QUICK_SIZES: dict[str, dict[str, dict]] = {
-    "vanilla": {"w16": dict(width=16, depth=2, pos_L=4, dir_L=2)},
-    "grid": {"r17": dict(resolution=17, initial_resolution=17, upsample_at=())},
-    "hashgrid": {"T10": dict(n_levels=4, log2_hashmap_size=10, hidden=8, geo_features=3)},
-}
-QUICK_SAMPLES = (16,)
-QUICK_BUDGETS = ("15it",)
-QUICK_REFERENCE_BUDGET = "30it"
-QUICK_TRAIN = dict(batch_rays=256, warmup=5)
-"""Train-argument overrides in quick mode."""
-
+SPEEDUP = 100
+"""The goal: the reference's PSNR in 1/SPEEDUP of its wall time."""
+QUICK = dict(sizes={"vanilla": {"w16": dict(width=16, depth=2, pos_L=4, dir_L=2)},
+                    "grid": {"r17": dict(resolution=17, initial_resolution=17, upsample_at=())},
+                    "hashgrid": {"T10": dict(n_levels=4, log2_hashmap_size=10, hidden=8, geo_features=3)}},
+             samples=(16,), budgets=("15it",), reference="30it", train=dict(batch_rays=256, warmup=5))
 SCENES = ("bunny", "square", "tu", "vase")
-"""Default scenes: three 2D outlines and one 3D object."""
-SWEEP_TRAIN = dict(val_every=0, val_views=2, progress=False)
-"""Train-argument overrides of every run (validation once, at the end; no bars in workers)."""
-
-
-@dataclass(frozen=True)
-class Spec:
-    """One configuration of the grid, before a scene and a budget are chosen."""
-
-    family: str
-    """Field family (``mitnerf.fields.FIELDS``)."""
-    size: str
-    """Label of the size (a key of ``SIZES[family]``, or ``preset``)."""
-    field_args: dict = field(default_factory=dict, hash=False)
-    """Overrides of the preset's field arguments."""
-    samples: int | None = None
-    """Coarse samples per ray (None: the preset's)."""
-    backend: str = "drjit"
-    """``drjit`` or ``torch``."""
+COLUMNS = ["id", "scene", "family", "size", "samples", "backend", "budget", "reference", "status", "reason", "psnr",
+           "ssim", "iou", "chamfer", "wall_time", "train_time", "steps", "render_time", "params", "host", "config"]
 
 
 @dataclass
-class SweepConfig:
-    """What to sweep, where to run it, where to write it."""
+class Config:
+    """What to sweep and where to run it."""
 
-    out: Path = Path("out/sweep")
-    """Folder of ``sweep.csv``, ``sweep.md`` and ``pareto.png``."""
-    scenes: list[str] = field(default_factory=lambda: list(SCENES))
-    """Scene names (``mitnerf.scenes.registry.scene_names()``)."""
-    configs: list[Spec] | None = None
-    """Configurations; None: the default grid (:func:`default_specs`)."""
-    budgets: list[str] | None = None
-    """Budgets such as ``"20s"`` or ``"500it"``; None: ``BUDGETS`` (quick: ``QUICK_BUDGETS``)."""
+    scenes: tuple = SCENES
+    """Scene names (2D and 3D)."""
+    budgets: tuple | None = None
+    """Budgets, ``"20s"`` (seconds) or ``"500it"`` (steps); None: ``BUDGETS``."""
     reference: bool = True
     """Add the torch reference row (when its scene is swept)."""
     workers: int = 1
     """Parallel runs (local processes)."""
     threads: int = 2
-    """CPU threads of each run (Dr.Jit and torch)."""
+    """CPU threads of each run."""
     executor: str = "local"
-    """``local`` (a pool of spawned processes) or ``dask`` (a distributed cluster)."""
+    """``local`` or ``dask``."""
     scheduler: str | None = None
-    """Address of the Dask scheduler (``tcp://host:8786``); required with ``executor='dask'``."""
+    """The Dask scheduler's address."""
     quick: bool = False
-    """Tiny rigs, one tiny model, a few steps: a smoke test of the whole pipeline."""
-    seed: int = 0
-    """Seed of the rigs, the initial weights and the batches."""
+    """Tiny rigs and models, a few steps: a smoke test."""
     retry_failed: bool = False
-    """Also rerun rows recorded as failed."""
-    progress: bool = True
-    """Progress bar over the runs."""
+    """Rerun rows recorded as failed."""
+    seed: int = 0
+    """Seed of the rigs and the runs."""
+    families: tuple = field(default_factory=lambda: tuple(SIZES))
+    """Field families to sweep."""
+
+
+def quick(seed: int = 0) -> Config:
+    return Config(scenes=("square",), quick=True, seed=seed)
 
 
 def parse_budget(text: str) -> dict:
-    """``"20s"`` -> ``{time_budget: 20, iters: 10**7}``; ``"500it"`` -> ``{iters: 500, time_budget: None}``."""
-    from ..errors import MitnerfError
-
+    """``"20s"`` -> 20 s of training; ``"500it"`` -> 500 steps."""
     t = str(text).strip().lower()
     try:
-        if t.endswith("it"):
-            return {"iters": int(t[:-2]), "time_budget": None}
-        if t.endswith("s"):
-            return {"iters": 10 ** 7, "time_budget": float(t[:-1])}
+        if t.endswith("it") and int(t[:-2]) > 0:
+            return {"iters": int(t[:-2])}
+        if t.endswith("s") and 0 < float(t[:-1]) < 1e7:
+            return {"time_budget": float(t[:-1])}
     except ValueError:
         pass
-    raise MitnerfError(f"cannot read the budget {text!r}; write seconds as '20s' or steps as '500it'")
+    raise ConfigError(f"cannot read the budget {text!r}; write seconds as '20s' or steps as '500it'")
 
 
-def default_specs(quick: bool = False) -> list[Spec]:
-    """The default grid: families with presets x sizes x samples x backends."""
-    from ..fields import FIELDS
-    from ..reference.fields import TORCH_FIELDS
-    from ..train.presets import preset_fields
-
-    sizes, samples = (QUICK_SIZES, QUICK_SAMPLES) if quick else (SIZES, SAMPLES)
-    specs = []
-    for family in preset_fields():
-        if family not in FIELDS:
-            continue
-        for size, args in sizes.get(family, {"preset": {}}).items():
-            backends = ["drjit"] + (["torch"] if family in TORCH_FIELDS and (quick or size in TORCH_SIZES) else [])
-            for n in samples:
-                specs += [Spec(family, size, dict(args), n, b) for b in backends]
-    return specs
-
-
-def args_for_dim(args: dict, dim: int) -> dict:
-    """Size overrides given per dimension (``{2: {...}, 3: {...}}``) or for both."""
-    if args and all(isinstance(k, int) for k in args):
-        return dict(args.get(dim, {}))
-    return dict(args)
-
-
-def scene_rig(scene: str, quick: bool, seed: int):
-    """The rig of a scene: the NeRF2D protocol in 2D, 25 views of 100 x 100 in 3D."""
-    from ..data.rig import RigConfig, noise_preset
-    from ..errors import MitnerfError
-    from ..scenes.registry import OBJECTS_3D, SCENES_2D
-
+def scene_rig(scene: str, quick: bool, seed: int) -> RigConfig:
     if scene in SCENES_2D:
-        if quick:
-            return RigConfig(dim=2, n_train=8, n_val=2, n_test=4, resolution=32, seed=seed, **noise_preset(1.0))
-        return RigConfig(dim=2, n_train=50, n_val=4, n_test=20, resolution=100, seed=seed, **noise_preset(1.0))
+        return RigConfig(dim=2, n_train=8 if quick else 50, n_val=2 if quick else 4, n_test=4 if quick else 20,
+                         resolution=32 if quick else 100, seed=seed, **noise_preset(1.0))
     if scene in OBJECTS_3D:
-        if quick:
-            return RigConfig(dim=3, n_train=6, n_val=1, n_test=2, resolution=16, seed=seed, **noise_preset(1.0))
-        return RigConfig(dim=3, n_train=25, n_val=2, n_test=8, resolution=100, seed=seed, **noise_preset(1.0))
-    raise MitnerfError(f"the sweep knows no scene {scene!r}; choose from {', '.join(SCENES_2D + OBJECTS_3D)}")
+        return RigConfig(dim=3, n_train=6 if quick else 25, n_val=1 if quick else 2, n_test=2 if quick else 8,
+                         resolution=16 if quick else 100, seed=seed, **noise_preset(1.0))
+    raise ConfigError(f"the sweep knows no scene {scene!r}; choose from {', '.join(SCENES_2D + OBJECTS_3D)}")
 
 
-def make_row(scene: str, rig, spec: Spec, budget: str, quick: bool, seed: int, threads: int,
-             reference: bool = False) -> dict:
-    """A JSON-ready row: labels, the rig, the model and train configs, and its id."""
-    from ..train.presets import preset
-
-    mc, tc = preset(spec.family, rig.dim)
-    mc.field_args.update(args_for_dim(spec.field_args, rig.dim))
-    if spec.samples is not None:
-        if mc.render.n_fine > 0:
-            mc.render.n_fine = spec.samples // 2
-        mc.render.n_coarse = spec.samples
-    if rig.dim == 3:
-        mc.render.background = (1.0, 1.0, 1.0)     # 3D datasets are composited over white
-    train = {**dataclasses.asdict(tc), **SWEEP_TRAIN, **(QUICK_TRAIN if quick else {}), **parse_budget(budget),
-             "seed": seed, "threads": threads}
-    row = {"scene": scene, "rig": dataclasses.asdict(rig), "backend": spec.backend, "model": mc.to_dict(),
-           "train": train, "reference": reference}
+def make_row(scene: str, rig: RigConfig, family: str, size: str, args: dict, samples: int | None, backend: str,
+             budget: str, cfg: Config, reference: bool = False) -> dict:
+    r = recipe_for(family, rig.dim)
+    if args and all(isinstance(k, int) for k in args):
+        args = args.get(rig.dim, {})
+    overrides = dict(args, val_every=0, seed=cfg.seed, threads=cfg.threads, progress=False, **parse_budget(budget))
+    if samples is not None:
+        overrides.update(n_coarse=samples, n_fine=samples // 2 if r.model.render.n_fine else None)
+    r = r.override(**overrides, **(QUICK["train"] if cfg.quick else {}))
+    if "iters" in parse_budget(budget):
+        r.train.time_budget = None
+    row = {"scene": scene, "rig": dataclasses.asdict(rig), "backend": backend, "recipe": r.to_dict(),
+           "reference": reference}
     row["id"] = digest(json.dumps(row, sort_keys=True, default=list))
-    row.update(family=spec.family, size=spec.size, samples=mc.render.n_coarse, budget=budget)
-    return row
+    return {**row, "family": family, "size": size, "samples": r.model.render.n_coarse, "budget": budget}
 
 
-def build_rows(cfg: SweepConfig) -> list[dict]:
+def build_rows(cfg: Config) -> list[dict]:
     """Every row of the sweep, the reference first (the longest run)."""
-    specs = cfg.configs if cfg.configs is not None else default_specs(cfg.quick)
-    budgets = cfg.budgets or list(QUICK_BUDGETS if cfg.quick else BUDGETS)
+    sizes = QUICK["sizes"] if cfg.quick else SIZES
+    samples = QUICK["samples"] if cfg.quick else SAMPLES
+    budgets = cfg.budgets or (QUICK["budgets"] if cfg.quick else BUDGETS)
     rigs = {s: scene_rig(s, cfg.quick, cfg.seed) for s in cfg.scenes}
     rows = []
     if cfg.reference and REFERENCE["scene"] in rigs:
-        ref = Spec(REFERENCE["family"], "preset", {}, None, REFERENCE["backend"])
-        budget = QUICK_REFERENCE_BUDGET if cfg.quick else REFERENCE["budget"]
-        rows.append(make_row(REFERENCE["scene"], rigs[REFERENCE["scene"]], ref, budget, cfg.quick, cfg.seed,
-                             cfg.threads, reference=True))
+        rows.append(make_row(REFERENCE["scene"], rigs[REFERENCE["scene"]], "vanilla", "recipe", {}, None, "torch",
+                             QUICK["reference"] if cfg.quick else REFERENCE["budget"], cfg, reference=True))
     for scene, rig in rigs.items():
-        for spec in specs:
-            rows += [make_row(scene, rig, spec, b, cfg.quick, cfg.seed, cfg.threads) for b in budgets]
-    return list({r["id"]: r for r in rows}.values())       # a spec listed twice runs once
+        for family in cfg.families:
+            for size, args in sizes.get(family, {}).items():
+                backends = ["drjit"] + (["torch"] if cfg.quick or size in TORCH_SIZES else [])
+                rows += [make_row(scene, rig, family, size, args, n, b, budget, cfg)
+                         for n in samples for b in backends for budget in budgets]
+    return list({r["id"]: r for r in rows}.values())
 
 
-@dataclass
-class SweepResult:
-    """What :func:`run_sweep` did."""
-
-    csv: Path
-    """``sweep.csv``."""
-    report: Path
-    """``sweep.md``."""
-    chart: Path
-    """``pareto.png``."""
-    ran: int
-    """Rows run now."""
-    skipped: int
-    """Rows already in the CSV."""
-    failed: int
-    """Rows run now that failed."""
+def prepare_worker(threads: int) -> None:
+    """The variant and Dr.Jit's thread count of a worker process (the torch engine sets its own)."""
+    set_variant()
+    dr.set_thread_count(int(threads))
 
 
-def run_sweep(cfg: SweepConfig) -> SweepResult:
-    """Run the rows not yet in ``sweep.csv``, then write the report and the chart."""
-    from . import sweep_exec
-    from .pareto import write_outputs
+def _record(row: dict, **values) -> dict:
+    rec = {k: row.get(k, "") for k in ("id", "scene", "family", "size", "samples", "backend", "budget", "reference")}
+    rec.update(host=socket.gethostname(), reason="",
+               config=json.dumps({k: row[k] for k in ("scene", "rig", "backend", "recipe")}, sort_keys=True))
+    return {**rec, **values}
 
-    out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
+
+def run_row(row: dict) -> dict:
+    """Fit and evaluate one row; returns its record (never raises)."""
+    try:
+        prepare_worker(row["recipe"]["train"]["threads"])
+        ds = cached_dataset(row["scene"], RigConfig(**row["rig"]))
+        t0 = time.perf_counter()
+        _, rec = fit_and_evaluate(ds, Recipe.from_dict(row["recipe"]), row["backend"])
+        return _record(row, **{k: v for k, v in rec.row().items() if k in COLUMNS},
+                       wall_time=time.perf_counter() - t0)
+    except Exception as exc:  # noqa: BLE001 - a failed row is a result, not the end of the sweep
+        return _record(row, status="failed", reason=f"{type(exc).__name__}: {exc}"[:500])
+
+
+def append_result(path: Path, record: dict) -> None:
+    """Append one record (header first for a new file); a torn last line is cut off first."""
+    if path.exists() and path.stat().st_size:
+        data = path.read_bytes()
+        if not data.endswith(b"\n"):
+            with open(path, "r+b") as f:
+                f.truncate(data.rfind(b"\n") + 1)
+    new = not path.exists() or path.stat().st_size == 0
+    with open(path, "a", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
+        if new:
+            w.writeheader()
+        w.writerow(record)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def read_results(path: Path) -> list[dict]:
+    """The complete records of the CSV, the last one of each id."""
+    if not path.exists():
+        return []
+    text = path.read_text()
+    text = text[:text.rfind("\n") + 1]
+    recs = []
+    for r in csv.DictReader(io.StringIO(text, newline="")):
+        try:
+            if isinstance(json.loads(r.get("config") or ""), dict) and r.get("status"):
+                recs.append(r)
+        except ValueError:
+            continue
+    return list({r["id"]: r for r in recs}.values())
+
+
+def pareto_front(rows: list[dict], x: str = "wall_time", y: str = "psnr", min_gain: float = 0.01) -> list[dict]:
+    """The rows no faster row beats by more than ``min_gain`` dB, by increasing ``x``."""
+    pts = sorted((r for r in rows if r.get("status") == "ok" and math.isfinite(num(r.get(x)))
+                  and math.isfinite(num(r.get(y)))), key=lambda r: (num(r[x]), -num(r[y])))
+    front, best = [], -math.inf
+    for r in pts:
+        if num(r[y]) > best + min_gain:
+            front.append(r)
+            best = num(r[y])
+    return front
+
+
+def is_reference(r: dict) -> bool:
+    return str(r.get("reference", "")).lower() in ("true", "1")
+
+
+def reference_verdict(rows: list[dict]) -> str:
+    refs = [r for r in rows if is_reference(r) and r["status"] == "ok"]
+    if not refs:
+        return "No torch reference in this sweep.\n"
+    ref = refs[0]
+    others = [r for r in pareto_front([r for r in rows if r["scene"] == ref["scene"] and not is_reference(r)])]
+    limit = num(ref["wall_time"]) / SPEEDUP
+    reach = [r for r in others if num(r["psnr"]) >= num(ref["psnr"])]
+    name = lambda r: f"{r['family']} {r['size']} s{r['samples']} {r['backend']} {r['budget']}"
+    text = (f"Torch reference ({name(ref)}, {ref['scene']}): {num(ref['psnr']):.2f} dB in {num(ref['wall_time']):.1f} s; "
+            f"the goal is that PSNR in at most {limit:.2f} s.\n\n")
+    if reach:
+        f = reach[0]
+        ok = num(f["wall_time"]) <= limit
+        text += (f"- fastest run reaching it: {name(f)}, {num(f['psnr']):.2f} dB in {num(f['wall_time']):.2f} s "
+                 f"({num(ref['wall_time']) / num(f['wall_time']):.0f}x faster): **{'PASSED' if ok else 'NOT PASSED'}**\n")
+    else:
+        text += "- no run reaches it: **NOT PASSED**\n"
+    return text
+
+
+def write_outputs(out: Path, rows: list[dict]) -> Path:
+    plot_pareto(rows, out / "pareto.png", pareto_front, is_reference)
+    text = ["# Speed against accuracy\n", "![test PSNR against wall time](pareto.png)\n", "## Torch reference\n",
+            reference_verdict(rows)]
+    cols = ["family", "size", "samples", "backend", "budget", "psnr", "ssim", "wall_time", "steps", "front", "id"]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        rs = [r for r in rows if r["scene"] == scene]
+        ids = {r["id"] for r in pareto_front(rs)}
+        table = [{**r, "front": "yes" if r["id"] in ids else ""} for r in sorted(rs, key=lambda r: num(r["wall_time"]))]
+        text += [f"## {scene}\n", markdown_table([r for r in table if r["status"] == "ok"], cols,
+                                                 {"psnr": ".2f", "ssim": ".3f", "wall_time": ".2f"})]
+    failed = [r for r in rows if r["status"] != "ok"]
+    if failed:
+        text += ["## Failed runs\n", markdown_table(failed, ["scene", "family", "size", "backend", "budget", "status",
+                                                             "reason"])]
+    (out / "sweep.md").write_text("\n".join(text))
+    return out / "sweep.md"
+
+
+def run(cfg: Config, out: Path, progress: bool = True) -> list[dict]:
+    """Run the rows not yet in ``out/sweep.csv``, then write the report and the chart."""
     csv_path = out / "sweep.csv"
     rows = build_rows(cfg)
-    done = sweep_exec.finished_ids(csv_path, retry_failed=cfg.retry_failed)
+    done = {r["id"] for r in read_results(csv_path) if not (cfg.retry_failed and r["status"] != "ok")}
     todo = [r for r in rows if r["id"] not in done]
-    failed = 0
-    if todo:
-        sweep_exec.prepare_datasets(todo, cfg.progress)
-        for result in sweep_exec.execute(todo, cfg):
-            sweep_exec.append_result(csv_path, result)
-            failed += result["status"] != "ok"
-    report, chart = write_outputs(csv_path, out)
-    return SweepResult(csv_path, report, chart, len(todo), len(rows) - len(todo), failed)
-
-
-def run(out: Path, quick: bool = False, seed: int = 0) -> Path:
-    """The experiment interface (``mitnerf experiment sweep``): the default sweep, one run at a time."""
-    return run_sweep(SweepConfig(out=Path(out), quick=quick, seed=seed)).report
+    for key in sorted({json.dumps([r["scene"], r["rig"]], sort_keys=True) for r in todo}):
+        scene, rig = json.loads(key)
+        cached_dataset(scene, RigConfig(**rig))          # rendered here once; workers only read the cache
+    failed = lambda row, exc: _record(row, status="failed", reason=f"worker died: {type(exc).__name__}: {exc}"[:500])
+    with tqdm(total=len(todo), desc="sweep", unit="run", disable=not progress) as bar:
+        for rec in run_jobs(run_row, todo, cfg.executor, cfg.workers, cfg.scheduler, prepare_worker, (cfg.threads,),
+                            failed):
+            append_result(csv_path, rec)
+            bar.update(1)
+    results = read_results(csv_path)
+    write_outputs(out, results)
+    return results

@@ -7,23 +7,34 @@ protocol in :mod:`mitnerf.fields.base`.
 
 from __future__ import annotations
 
+import dataclasses
+
+from ..errors import ConfigError
 from .grid import GridConfig, GridField
 from .hashgrid import HashGridConfig, HashGridField
 from .mlp import NeRFConfig, NeRFField
+from .pixelnerf import PixelNeRFConfig, PixelNeRFField
 
 FIELDS: dict[str, tuple[type, type]] = {
     "vanilla": (NeRFConfig, NeRFField),
     "grid": (GridConfig, GridField),
     "hashgrid": (HashGridConfig, HashGridField),
+    "pixelnerf": (PixelNeRFConfig, PixelNeRFField),
 }
+CONDITIONED = ("pixelnerf",)
+"""Families that render from input views (a context), trained across scenes, not fitted to one."""
 
 
 def field_config(kind: str, **kwargs):
+    """The config of family ``kind``; unknown families or arguments are refused with the valid ones."""
     if kind not in FIELDS:
-        from ..errors import MitnerfError
-
-        raise MitnerfError(f"unknown field {kind!r}; choose one of {', '.join(FIELDS)}")
-    return FIELDS[kind][0](**kwargs)
+        raise ConfigError(f"unknown field {kind!r}; choose one of {', '.join(FIELDS)}")
+    cls = FIELDS[kind][0]
+    unknown = sorted(set(kwargs) - {f.name for f in dataclasses.fields(cls)})
+    if unknown:
+        raise ConfigError(f"the {kind} field has no setting {', '.join(map(repr, unknown))}; its settings are "
+                          f"{', '.join(f.name for f in dataclasses.fields(cls) if f.name not in ('dim', 'bound'))}")
+    return cls(**kwargs)
 
 
 def make_field(kind: str, **kwargs):

@@ -3,7 +3,8 @@
 A field is *structure*; its trainable *storage* is a ``params`` dict of Dr.Jit arrays
 held by the caller (an optimizer), as in ``drjit.nn``. Every field implements::
 
-    init_params(seed) -> params          # new storage, deterministic for the seed
+    init_numpy(seed) -> arrays           # initial weights, canonical numpy (both engines start here)
+    init_params(seed) -> params          # new storage: from_numpy(init_numpy(seed))
     density(params, x) -> sigma          # x: D arrays [n] (world units) -> Float [n]
     query(params, x, d) -> (sigma, rgb)  # d: unit view directions -> Float [n], 3 x Float [n]
     to_numpy(params) / from_numpy(arrays)   # canonical weights (checkpoints, the torch twin)
@@ -17,15 +18,22 @@ from __future__ import annotations
 
 import drjit as dr
 
+from ..errors import ConfigError, check_number
+
 DENSITY_ACTIVATIONS = ("relu", "softplus", "trunc_exp")
 
 
-def check_config(cfg) -> None:
-    """Validate the fields every field config has: ``dim`` and ``density_activation``."""
+def check_config(cfg, **ranges) -> None:
+    """Validate the settings every field config has (``dim``, ``density_activation``,
+    ``bound``) and the integer settings in ``ranges`` (``name=(lo, hi)``)."""
     if cfg.dim not in (2, 3):
-        raise ValueError(f"dim must be 2 or 3, got {cfg.dim}")
+        raise ConfigError(f"dim must be 2 or 3, got {cfg.dim!r}")
     if cfg.density_activation not in DENSITY_ACTIVATIONS:
-        raise ValueError(f"density_activation must be one of {DENSITY_ACTIVATIONS}, got {cfg.density_activation!r}")
+        raise ConfigError(f"density_activation must be one of {', '.join(DENSITY_ACTIVATIONS)}, "
+                          f"got {cfg.density_activation!r}")
+    check_number("bound", cfg.bound, 0, 1e6, strict_lo=True)
+    for name, (lo, hi) in ranges.items():
+        check_number(name, getattr(cfg, name), lo, hi, integer=True, flag=f"--{name.replace('_', '-')}")
 
 
 def density_activation(raw, kind: str):

@@ -27,6 +27,8 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
 
+from ..errors import check_number
+from ..rng import hash_u32
 from .base import check_config, density_activation, sigmoid
 
 
@@ -61,12 +63,13 @@ class GridConfig:
     """Half-extent of the grid in world units."""
 
     def __post_init__(self):
-        check_config(self)
         if self.initial_resolution is None:
             self.initial_resolution = self.resolution
         self.upsample_at = tuple(self.upsample_at)
-        if self.resolution < 2 or self.initial_resolution < 2:
-            raise ValueError("a grid needs at least 2 vertices per axis")
+        top = 8193 if self.dim == 2 else 513
+        check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26))
+        for name in ("density_scale", "tv_weight", "tv_color_weight"):
+            check_number(name, getattr(self, name), 0, 1e9)
 
     @property
     def color_coeffs(self) -> int:
@@ -129,13 +132,15 @@ class GridField:
         self.traceable = True
 
     # ------------------------------------------------------------------ storage
-    def init_params(self, seed: int = 0) -> dict:
+    def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         res = self.cfg.initial_resolution
-        n = res ** self.dim
+        shape = (res,) * self.dim
         rng = np.random.default_rng(seed)
-        color = rng.normal(0, 0.01, (n, 3 * self.cfg.color_coeffs)).astype(np.float32)
-        return {"density": Float(np.full(n, self.cfg.density_init / self.cfg.density_scale, np.float32)),
-                "color": Float(color.ravel())}
+        color = rng.normal(0, 0.01, shape + (3 * self.cfg.color_coeffs,)).astype(np.float32)
+        return {"density": np.full(shape, self.cfg.density_init / self.cfg.density_scale, np.float32), "color": color}
+
+    def init_params(self, seed: int = 0) -> dict:
+        return self.from_numpy(self.init_numpy(seed))
 
     def resolution_of(self, params) -> int:
         return int(round(dr.width(params["density"]) ** (1.0 / self.dim)))
@@ -203,8 +208,6 @@ class GridField:
         res = self.resolution_of(params)
         n = res ** self.dim
         if cfg.tv_samples and cfg.tv_samples < n:
-            from ..render.samplers import hash_u32
-
             v = hash_u32(hash_u32(seed ^ 0x2545F491) ^ dr.arange(UInt32, cfg.tv_samples)) % n
         else:
             v = dr.arange(UInt32, n)

@@ -24,6 +24,7 @@ import drjit.nn as nn
 import numpy as np
 from drjit.auto.ad import Float
 
+from ..errors import CheckpointError, ConfigError
 from .base import check_config, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size
 from .hashenc import hash_encode, hash_layout
@@ -69,11 +70,13 @@ class HashGridConfig:
     """Half-extent of the encoded region in world units."""
 
     def __post_init__(self):
-        check_config(self)
+        check_config(self, n_levels=(1, 32), features_per_level=(1, 8), log2_hashmap_size=(4, 24),
+                     base_resolution=(2, 1 << 16), max_resolution=(self.base_resolution, 1 << 20), hidden=(1, 512),
+                     geo_features=(1, 128), dir_L=(0, 12))
         if self.mode not in ("coopvec", "tensor"):
-            raise ValueError("mode must be coopvec or tensor")
+            raise ConfigError(f"mode must be coopvec or tensor, got {self.mode!r}")
         if self.encoding not in ("mitnerf", "drjit"):
-            raise ValueError("encoding must be mitnerf or drjit")
+            raise ConfigError(f"encoding must be mitnerf or drjit, got {self.encoding!r}")
 
     @property
     def per_level_scale(self) -> float:
@@ -108,18 +111,21 @@ class HashGridField:
     def n_table(self) -> int:
         return self.layout.n_params
 
-    def init_params(self, seed: int = 0) -> dict:
+    def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         rng = np.random.default_rng(seed)
         arrays = torch_default_init(self.shapes, rng)
         arrays["sigma_net.1.bias"][0] += np.float32(self.cfg.density_bias)
         s = self.cfg.init_scale
         arrays["table"] = rng.uniform(-s, s, self.n_table).astype(np.float32)
-        return self.from_numpy(arrays)
+        return arrays
+
+    def init_params(self, seed: int = 0) -> dict:
+        return self.from_numpy(self.init_numpy(seed))
 
     def from_numpy(self, arrays: dict) -> dict:
         table = np.asarray(arrays["table"], np.float32).ravel()
         if table.size != self.n_table:
-            raise ValueError(f"hash table has {table.size} entries, this configuration needs {self.n_table}; "
+            raise CheckpointError(f"hash table has {table.size} entries, this configuration needs {self.n_table}; "
                              "the checkpoint was saved with another configuration")
         return {"table": Float(table), **self.layers.from_numpy(arrays)}
 

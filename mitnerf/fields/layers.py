@@ -15,6 +15,7 @@ import drjit.nn as nn
 import numpy as np
 from drjit.auto.ad import Float, TensorXf
 
+from ..errors import CheckpointError
 from .dense import dense, row, stack_rows
 
 
@@ -45,7 +46,7 @@ class LinearLayers:
         for name, o, i in self.shapes:
             w, b = np.asarray(arrays[f"{name}.weight"]), np.asarray(arrays[f"{name}.bias"])
             if w.shape != (o, i) or b.shape != (o,):
-                raise ValueError(f"{name}: expected weight {(o, i)} and bias {(o,)}, got {w.shape}, {b.shape}; "
+                raise CheckpointError(f"{name}: expected weight {(o, i)} and bias {(o,)}, got {w.shape}, {b.shape}; "
                                  "the checkpoint was saved with another architecture")
             mats += [TensorXf(w.astype(np.float32)), TensorXf(b.astype(np.float32))]
         if self.mode == "tensor":

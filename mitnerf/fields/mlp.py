@@ -28,10 +28,12 @@ from dataclasses import dataclass
 import numpy as np
 from drjit.auto.ad import Float
 
+from ..errors import ConfigError
 from .base import check_config, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size, positional_encoding
 from .layers import LinearLayers, torch_default_init
 
+MODES = ("auto", "coopvec", "tensor")
 COOPVEC_MAX_WIDTH = 16
 """Widest layer for which ``mode='auto'`` uses cooperative vectors. Measured with
 ``benchmarks/coopvec_vs_tensor.py`` (2 cores, depth 4, 64 samples x 1024 rays, ms per
@@ -74,11 +76,11 @@ class NeRFConfig:
     def __post_init__(self):
         if self.skip is None:
             self.skip = self.depth // 2 if self.depth >= 4 else -1
-        check_config(self)
-        if self.mode not in ("auto", "coopvec", "tensor"):
-            raise ValueError(f"mode must be auto, coopvec or tensor, got {self.mode!r}")
+        check_config(self, pos_L=(0, 24), dir_L=(0, 12), depth=(1, 32), width=(2, 1024), skip=(-1, self.depth - 1))
+        if self.mode not in MODES:
+            raise ConfigError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
         if self.view_dependent and self.dir_L < 1:
-            raise ValueError("a view-dependent field needs dir_L >= 1 (or set view_dependent=False)")
+            raise ConfigError("a view-dependent field needs dir_L >= 1 (or set view_dependent=False)")
 
     @property
     def resolved_mode(self) -> str:
@@ -119,8 +121,11 @@ class NeRFField:
         self.traceable = self.mode == "coopvec"
         self.layers = LinearLayers(layer_shapes(cfg), self.mode)
 
+    def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
+        return init_weights(self.cfg, seed)
+
     def init_params(self, seed: int = 0) -> dict:
-        return self.from_numpy(init_weights(self.cfg, seed))
+        return self.from_numpy(self.init_numpy(seed))
 
     def from_numpy(self, arrays: dict[str, np.ndarray]) -> dict:
         return self.layers.from_numpy(arrays)

@@ -48,6 +48,7 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import Bool, Float, Int32, TensorXf, UInt32
 
+from ..errors import MitnerfError
 from .base import DENSITY_ACTIVATIONS, density_activation, sigmoid
 from .dense import dense, row, stack_rows
 from .encoding import angle_harmonics, positional_encoding
@@ -60,6 +61,8 @@ POOLS = ("mean", "mean_var")
 class PixelNeRFConfig:
     """Architecture of the 2D pixelNeRF field."""
 
+    dim: int = 2
+    """Always 2: pixelNeRF here reads 1D views of 2D scenes."""
     encoder: str = "trained"
     """``frozen`` (random weights, never updated; NeRF2D) or ``trained`` (learnt end to end)."""
     channels: int = 16
@@ -93,9 +96,9 @@ class PixelNeRFConfig:
     """Scene half-extent; positions are divided by it before encoding."""
 
     def __post_init__(self):
-        from ..errors import MitnerfError
-
         self.dilations = tuple(int(d) for d in self.dilations)
+        if self.dim != 2:
+            raise MitnerfError("pixelNeRF is implemented for 2D scenes (1D views) only")
         if self.encoder not in ENCODERS:
             raise MitnerfError(f"encoder must be one of {ENCODERS}, got {self.encoder!r}")
         if self.kernel % 2 != 1:
@@ -302,11 +305,14 @@ class PixelNeRFField:
         return other
 
     # ------------------------------------------------------------------ storage
-    def init_params(self, seed: int = 0) -> dict:
+    def init_numpy(self, seed: int = 0) -> dict:
         arrays = mlp_weights(self.cfg, seed)
         if self.cfg.encoder == "trained":
             arrays.update(encoder_weights(self.cfg, self.cfg.encoder_seed))
-        return self.from_numpy(arrays)
+        return arrays
+
+    def init_params(self, seed: int = 0) -> dict:
+        return self.from_numpy(self.init_numpy(seed))
 
     def from_numpy(self, arrays: dict) -> dict:
         return {k: TensorXf(np.asarray(v, np.float32)) for k, v in arrays.items()}
@@ -327,9 +333,7 @@ class PixelNeRFField:
         """Frozen-encoder features of numpy views ``[V, H, 3]`` -> ``[feature_size, V*H]``
         (compute once per view; put them in :func:`make_context`)."""
         if self.frozen is None:
-            from ..errors import MitnerfError
-
-            raise MitnerfError("features_numpy precomputes frozen features; this field trains its encoder "
+                raise MitnerfError("features_numpy precomputes frozen features; this field trains its encoder "
                                "(use encoder='frozen', or let query() encode the views)")
         images = np.asarray(images, np.float32)
         V = images.shape[0]
@@ -349,9 +353,7 @@ class PixelNeRFField:
         """Density ``[n]`` and colour (3 x ``[n]``) at points ``x`` seen along ``d``."""
         ctx = self.context
         if ctx is None:
-            from ..errors import MitnerfError
-
-            raise MitnerfError("this pixelNeRF field has no input views; call field.with_context(make_context(...))")
+                raise MitnerfError("this pixelNeRF field has no input views; call field.with_context(make_context(...))")
         cfg, V, H = self.cfg, ctx.n_views, ctx.height
         n = dr.width(x[0])
         feats = self.features(params, ctx)                        # [F, V*H]

@@ -7,8 +7,8 @@
 """
 
 from .chamfer import ChamferResult, chamfer_distance, sample_surface
-from .mesh import (Mesh, auto_level, density_grid, extract_mesh, level_for_opacity, mesh_from_grid,
+from .mesh import (LEVEL, Mesh, auto_level, density_volume, extract_mesh, level_for_opacity, mesh_from_grid,
                    mesh_from_ply)
 
-__all__ = ["ChamferResult", "Mesh", "auto_level", "chamfer_distance", "density_grid", "extract_mesh",
+__all__ = ["LEVEL", "ChamferResult", "Mesh", "auto_level", "chamfer_distance", "density_volume", "extract_mesh",
            "level_for_opacity", "mesh_from_grid", "mesh_from_ply", "sample_surface"]

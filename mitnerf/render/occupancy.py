@@ -25,7 +25,9 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
 
-from .samplers import Explicit, per_sample, uniform
+from ..errors import check_number
+from ..rng import uniform
+from .samplers import Explicit, per_sample
 
 
 @dataclass
@@ -46,6 +48,14 @@ class OccupancyConfig:
     """Density below which a cell is empty (or the mean, if that is smaller)."""
     march_bins: int = 512
     """Bins per ray in which occupancy is looked up (the finest sample spacing)."""
+
+    def validate(self) -> None:
+        check_number("occupancy resolution", self.resolution, 2, 1024, integer=True)
+        check_number("occupancy update_every", self.update_every, 1, 10 ** 9, integer=True)
+        check_number("occupancy warmup", self.warmup, 0, 10 ** 9, integer=True)
+        check_number("occupancy decay", self.decay, 0.0, 1.0)
+        check_number("occupancy threshold", self.threshold, 0.0, 1e9)
+        check_number("occupancy march_bins", self.march_bins, 1, 1 << 16, integer=True)
 
 
 def cell_index(x: list, bound: float, res: int):

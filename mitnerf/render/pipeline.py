@@ -15,10 +15,11 @@ from dataclasses import dataclass, field
 import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
+from ..errors import ConfigError, check_number
 from .integral import RenderOutput
 from .occupancy import OccupancyConfig, OccupiedSampler
 from .samplers import Stratified, importance_sample
-from .volume import volume_render
+from .volume import METHODS, volume_render
 
 
 @dataclass
@@ -43,6 +44,17 @@ class RenderConfig:
         if isinstance(self.occupancy, dict):
             self.occupancy = OccupancyConfig(**self.occupancy)
 
+    def validate(self) -> None:
+        check_number("n_coarse", self.n_coarse, 1, 4096, integer=True, flag="--samples")
+        check_number("n_fine", self.n_fine, 0, 4096, integer=True, flag="--fine")
+        if self.method not in METHODS:
+            raise ConfigError(f"--method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        if len(self.background) != 3:
+            raise ConfigError(f"the background needs 3 values (r, g, b), got {self.background!r}")
+        for v in self.background:
+            check_number("background", v, 0.0, 1.0, flag="--background")
+        self.occupancy.validate()
+
 
 def split_params(params: dict, prefix: str) -> dict:
     p = prefix + "."
@@ -65,8 +77,12 @@ class Model:
     def dim(self) -> int:
         return self.fields["coarse"].dim
 
+    def init_numpy(self, seed: int) -> dict:
+        """Initial weights, canonical numpy (both engines start from these)."""
+        return join_params(**{name: f.init_numpy(seed + k) for k, (name, f) in enumerate(self.fields.items())})
+
     def init_params(self, seed: int) -> dict:
-        return join_params(**{name: f.init_params(seed + k) for k, (name, f) in enumerate(self.fields.items())})
+        return self.from_numpy(self.init_numpy(seed))
 
     def to_numpy(self, params: dict) -> dict:
         return {f"{g}.{k}": v for g, f in self.fields.items() for k, v in f.to_numpy(split_params(params, g)).items()}

@@ -22,20 +22,7 @@ from dataclasses import dataclass
 import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
-
-def hash_u32(x: UInt32) -> UInt32:
-    """Wellons' lowbias32 integer hash (bijective on 32-bit integers)."""
-    x = x ^ (x >> 16)
-    x = x * 0x7FEB352D
-    x = x ^ (x >> 15)
-    x = x * 0x846CA68B
-    return x ^ (x >> 16)
-
-
-def uniform(seed: UInt32, ray: UInt32, i: UInt32) -> Float:
-    """A uniform number in [0, 1) for (seed, ray, i), 24 random bits."""
-    h = hash_u32(hash_u32(hash_u32(seed) ^ ray) ^ (i * 0x9E3779B9))
-    return Float(h >> 8) * (1.0 / 16777216.0)
+from ..rng import uniform
 
 
 @dataclass

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._io import atomic_write_bytes
 from .ply import write_ply
 
 # name -> (pyvista loader, up axis of the raw mesh, stripe direction, hue offset)
@@ -120,8 +121,6 @@ def vase_mesh(n_around: int = 160, n_up: int = 120):
 
 def build_vase(out_dir: Path) -> dict[str, str]:
     import imageio.v3 as iio
-
-    from .._io import atomic_write_bytes
 
     verts, faces, uv = vase_mesh()
     mesh = write_ply(out_dir / "vase.ply", verts, faces, uv=uv)

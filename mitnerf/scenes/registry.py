@@ -14,15 +14,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from .._io import cache_dir, digest
-from ..errors import MitnerfError
+from .._io import cache_entry, digest
+from .._variant import ensure_variant
+from ..errors import DataError
 from .objects3d import OBJECTS_3D, build_object
 from .polygon import Polygon
 from .ply import write_ply
 
 SCENES_XML = Path(__file__).resolve().parents[2] / "scenes_xml"
 SCENES_2D = ("square", "square_concave", "bunny", "tu")
-ASSET_VERSION = "1"  # bump when a builder changes what it writes
+ASSET_VERSION = "2"  # bump when a builder changes what it writes
 
 
 def scene_names() -> tuple[str, ...]:
@@ -56,25 +57,26 @@ class SceneInfo:
 def load_xml(path: Path, **variables):
     import mitsuba as mi
 
+    ensure_variant()
     path = Path(path)
     if not path.is_file():
-        raise MitnerfError(f"scene file {path} does not exist; check the path (scenes live in {SCENES_XML})")
+        raise DataError(f"scene file {path} does not exist; check the path (scenes live in {SCENES_XML})")
     try:
         return mi.load_file(str(path), **{k: str(v) for k, v in variables.items()})
     except RuntimeError as exc:
         msg = " ".join(str(exc).split())
         msg = msg.split("] ", 1)[-1] if msg.startswith("[") else msg
-        raise MitnerfError(f"cannot load scene file {path}: {msg}; fix the XML") from None
+        raise DataError(f"cannot load scene file {path}: {msg}; fix the XML") from None
 
 
 def prism_mesh(polygon: Polygon) -> Path:
     """Write (or reuse) the prism PLY of ``polygon``."""
-    key = digest(ASSET_VERSION, polygon.points.tobytes())
-    path = cache_dir("meshes") / f"{polygon.name}-{key}.ply"
-    if not path.exists():
+    def build(tmp: Path) -> None:
         v, f, c = polygon.prism()
-        write_ply(path, v, f, colors=c)
-    return path
+        write_ply(tmp / "prism.ply", v, f, colors=c)
+
+    key = digest(ASSET_VERSION, polygon.points.tobytes())
+    return cache_entry(f"meshes/{polygon.name}-{key}", build) / "prism.ply"
 
 
 def scene_2d(polygon: Polygon, xml: Path | None = None) -> SceneInfo:
@@ -86,14 +88,14 @@ def scene_2d(polygon: Polygon, xml: Path | None = None) -> SceneInfo:
 
 
 def object_3d(name: str) -> SceneInfo:
-    out = cache_dir("objects", f"{name}-{digest(ASSET_VERSION, name)}")
-    marker = out / "done"
-    if not marker.exists():
-        variables = build_object(name, out)
-        marker.write_text("\n".join(f"{k}={v}" for k, v in variables.items()))
-    variables = dict(line.split("=", 1) for line in marker.read_text().splitlines())
-    mesh = Path(variables["mesh"])
-    return SceneInfo(name, "3d", SCENES_XML / f"{name}.xml", variables, mesh=mesh, radius=1.0)
+    def build(tmp: Path) -> None:
+        variables = build_object(name, tmp)
+        (tmp / "variables.txt").write_text("\n".join(f"{k}={Path(v).name}" for k, v in variables.items()))
+
+    folder = cache_entry(f"objects/{name}-{digest(ASSET_VERSION, name)}", build)
+    variables = {k: str(folder / v) for k, v in
+                 (line.split("=", 1) for line in (folder / "variables.txt").read_text().splitlines())}
+    return SceneInfo(name, "3d", SCENES_XML / f"{name}.xml", variables, mesh=Path(variables["mesh"]), radius=1.0)
 
 
 def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None = None) -> SceneInfo:
@@ -108,7 +110,7 @@ def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None
                        else Polygon.from_points(polygon))
         return scene_2d(polygon)
     if scene is None:
-        raise MitnerfError(f"no scene given; pass one of {', '.join(scene_names())} or a polygon")
+        raise DataError(f"no scene given; pass one of {', '.join(scene_names())} or a polygon")
     name = str(scene)
     if name in SCENES_2D:
         poly = Polygon.from_json(SCENES_XML / "polygons" / f"{name}.json")
@@ -118,10 +120,10 @@ def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None
     if name.endswith(".xml"):
         path = Path(name)
         if not path.is_file():
-            raise MitnerfError(f"scene file {path} does not exist; check the path")
+            raise DataError(f"scene file {path} does not exist; check the path")
         info = SceneInfo(path.stem, "2d" if kind == "2d" else "3d", path.resolve())
         info.load()  # fail early on malformed XML
         return info
-    raise MitnerfError(
+    raise DataError(
         f"unknown scene {name!r}; choose one of {', '.join(scene_names())}, "
         "give a path to a Mitsuba XML file, or pass --polygon FILE")

@@ -1,54 +1,177 @@
-"""Checkpoints: ``weights.npz`` (canonical, backend-independent names) + ``config.json``.
+"""Checkpoints you can trust: a versioned manifest and arrays with a hash each; never pickle.
 
-A checkpoint reloads into either backend and renders exactly what was saved
-(``load_checkpoint(...).backend.render`` == the original's, bit for bit on Dr.Jit).
+A checkpoint folder (the ``--out`` of ``mitnerf fit``)::
+
+    manifest.json   {"format": "mitnerf-checkpoint", "version": 2, "field", "dim", "backend",
+                     "recipe", "bound", "near", "far", "dataset", "loop", "best", "metrics",
+                     "arrays": {"<file>.npz": {"<name>": {"shape", "dtype", "sha256"}}}}
+    weights.npz     the model (canonical names, both engines read it) and the occupancy grid
+    state.npz       Adam's moments (engine-specific names) and the best weights: for --resume
+    history.json    the loss and validation curves
+
+Loading checks everything before a single weight is used: the manifest's format and
+version (a newer format is refused, not guessed at), the field and dimension the caller
+needs, each array's presence, shape, dtype and SHA-256, and that every weight is finite.
+Any failure is one :class:`~mitnerf.errors.CheckpointError` line that says what is wrong.
+``.npz`` files are read with ``allow_pickle=False``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import io
 import json
-import tempfile
+import math
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write_bytes
-from ..errors import MitnerfError
-from .config import ModelConfig, TrainConfig
-from .trainer import Run, make_backend
+from .._io import atomic_write_text
+from ..errors import CheckpointError, MitnerfError
+from .engines import make_backend
+from .fit import Run
+from .loop import LoopState, new_history
+from .recipes import Recipe
+
+FORMAT = "mitnerf-checkpoint"
+VERSION = 2
 
 
-def save_checkpoint(run: Run, out: str | Path, extra: dict | None = None) -> Path:
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryFile() as f:
-        np.savez(f, **run.backend.get_weights())
-        f.seek(0)
-        atomic_write_bytes(out / "weights.npz", f.read())
+def _sha(a: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()
+
+
+def _npz_bytes(arrays: dict) -> tuple[bytes, dict]:
+    buf = io.BytesIO()
+    arrays = {k: np.ascontiguousarray(v) for k, v in arrays.items()}
+    np.savez(buf, **arrays)
+    return buf.getvalue(), {k: {"shape": list(v.shape), "dtype": str(v.dtype), "sha256": _sha(v)}
+                            for k, v in arrays.items()}
+
+
+def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -> Path:
+    """Write ``run``'s checkpoint into ``folder`` (a staged output folder; files are atomic)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
     be = run.backend
-    config = {"model": run.model_cfg.to_dict(), "train": dataclasses.asdict(run.train_cfg),
-              "backend": be.name, "dim": be.model.dim, "bound": run.bound, "near": be.near, "far": be.far,
-              "dataset": run.dataset_meta, "steps": run.steps, "train_time": run.train_time, **(extra or {})}
-    atomic_write_bytes(out / "config.json", json.dumps(config, indent=1, default=str).encode())
-    return out
+    state = {f"optimizer.{k}": v for k, v in be.optimizer_state().items()}
+    if run.snapshot is not None:
+        state.update({f"best.{k}": v for k, v in run.snapshot.items()})
+    files = {"weights.npz": _npz_bytes(be.get_weights()), "state.npz": _npz_bytes(state)}
+    for name, (data, _) in files.items():
+        (folder / name).write_bytes(data)
+    manifest = {"format": FORMAT, "version": VERSION, "field": run.recipe.model.field, "dim": be.dim,
+                "backend": be.name, "recipe": run.recipe.to_dict(), "bound": be.bound, "near": be.near,
+                "far": be.far, "dataset": run.dataset_meta,
+                "loop": {"step": run.state.step, "train_time": run.state.train_time}, "best": run.best,
+                "metrics": metrics or {}, "arrays": {name: meta for name, (_, meta) in files.items()}}
+    atomic_write_text(folder / "history.json", json.dumps(run.state.history, default=float))
+    atomic_write_text(folder / "manifest.json", json.dumps(manifest, indent=1, default=str))
+    return folder
 
 
-def load_checkpoint(path: str | Path, backend: str | None = None) -> Run:
-    """Rebuild the model of a checkpoint folder (in its own backend unless told otherwise)."""
+def read_manifest(path: str | Path) -> dict:
     path = Path(path)
+    f = path / "manifest.json"
+    if not f.is_file():
+        old = " (it looks like a checkpoint of mitnerf < 0.2: refit it)" if (path / "config.json").exists() else ""
+        raise CheckpointError(f"{path} is not a mitnerf checkpoint: it has no manifest.json{old}; "
+                              "pass the --out folder of `mitnerf fit`")
     try:
-        config = json.loads((path / "config.json").read_text())
-        weights = dict(np.load(path / "weights.npz"))
+        m = json.loads(f.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise CheckpointError(f"{f} is not valid JSON ({type(exc).__name__}); the checkpoint is corrupt: "
+                              "refit it or restore a copy") from None
+    if not isinstance(m, dict) or m.get("format") != FORMAT:
+        raise CheckpointError(f"{f} is not a mitnerf checkpoint manifest; pass the --out folder of `mitnerf fit`")
+    version = m.get("version")
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise CheckpointError(f"{f} has no valid format version; the checkpoint was edited: refit it")
+    if version > VERSION:
+        raise CheckpointError(f"{path} was written by a newer mitnerf (checkpoint format {version}, this one reads "
+                              f"up to {VERSION}); upgrade mitnerf")
+    if version < VERSION:
+        raise CheckpointError(f"{path} has checkpoint format {version}, which this mitnerf no longer reads; refit it")
+    try:
+        assert m["dim"] in (2, 3) and isinstance(m["field"], str) and isinstance(m["arrays"], dict)
+        for key in ("bound", "near", "far"):
+            assert isinstance(m[key], (int, float)) and math.isfinite(m[key])
+        assert m["bound"] > 0 and 0 <= m["near"] < m["far"]
+        m["recipe"] = Recipe.from_dict(m["recipe"])
+        assert m["recipe"].model.field == m["field"] and m["recipe"].dim == m["dim"]
+    except (AssertionError, KeyError, TypeError, ValueError, AttributeError):
+        raise CheckpointError(f"{f} is incomplete or was edited (a missing or malformed entry); refit it") from None
+    return m
+
+
+def read_arrays(path: Path, name: str, listed: dict) -> dict[str, np.ndarray]:
+    """The arrays of ``path/name``, checked against the manifest's entry ``listed``."""
+    f = path / name
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
     except FileNotFoundError:
-        raise MitnerfError(f"{path} is not a checkpoint (config.json and weights.npz needed); "
-                           "pass the --out folder of `mitnerf fit`") from None
-    model_cfg = ModelConfig.from_dict(config["model"])
-    train_cfg = TrainConfig(**{k: v for k, v in config["train"].items() if k in TrainConfig.__dataclass_fields__})
-    train_cfg.progress = False
-    be = make_backend(backend or config["backend"], model_cfg, config["dim"], config["bound"],
-                      config["near"], config["far"], train_cfg)
-    be.set_weights(weights)
-    run = Run(be, model_cfg, train_cfg, config.get("dataset", {}), config["bound"])
-    run.steps, run.train_time = config.get("steps", 0), config.get("train_time", 0.0)
-    return run
+        raise CheckpointError(f"{f} is missing; the checkpoint is incomplete: refit it") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise CheckpointError(f"{f} is truncated or corrupt ({type(exc).__name__}); refit it or restore a "
+                              "copy") from None
+    if set(arrays) != set(listed):
+        diff = sorted(set(arrays) ^ set(listed))
+        raise CheckpointError(f"{f} does not hold the arrays its manifest lists (differ: {', '.join(diff[:3])}); "
+                              "the checkpoint was edited: refit it")
+    for k, a in arrays.items():
+        meta = listed[k]
+        if not isinstance(meta, dict) or list(a.shape) != meta.get("shape") or str(a.dtype) != meta.get("dtype"):
+            raise CheckpointError(f"{f}: array {k!r} has shape {list(a.shape)} {a.dtype}, the manifest says "
+                                  f"{meta}; the checkpoint was edited: refit it")
+        if _sha(a) != meta.get("sha256"):
+            raise CheckpointError(f"{f}: array {k!r} does not match its recorded SHA-256; the file changed after "
+                                  "it was written: refit it or restore a copy")
+        if a.dtype.kind == "f" and not np.isfinite(a).all():
+            raise CheckpointError(f"{f}: array {k!r} contains NaN or infinity; this model cannot render: refit it")
+    return arrays
+
+
+def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str | None = None,
+                    dim: int | None = None, need: str | None = None) -> tuple[Run, dict]:
+    """Rebuild a checkpoint's model (in its own engine unless ``backend`` says otherwise).
+
+    ``field`` / ``dim``: what the caller needs (``need`` names the caller in the error).
+    Returns the :class:`Run` and the resume state (optimizer, loop state, best weights)."""
+    path = Path(path)
+    m = read_manifest(path)
+    who = need or "this command"
+    if dim is not None and m["dim"] != dim:
+        raise CheckpointError(f"{path} holds a {m['dim']}D {m['field']} field; {who} needs a {dim}D one")
+    if field is not None and m["field"] != field:
+        raise CheckpointError(f"{path} holds a {m['field']} field; {who} needs a {field} field")
+    weights = read_arrays(path, "weights.npz", m["arrays"].get("weights.npz", {}))
+    state = read_arrays(path, "state.npz", m["arrays"].get("state.npz", {}))
+    recipe: Recipe = m["recipe"]
+    recipe.train.progress = False
+    be = make_backend(backend or m["backend"], recipe.model, recipe.train, m["dim"], m["bound"], m["near"], m["far"])
+    try:
+        be.set_weights(weights)
+    except (MitnerfError, KeyError, ValueError, RuntimeError) as exc:
+        raise CheckpointError(f"{path}: the weights do not fit the model its manifest describes ({exc}); "
+                              "the checkpoint was edited: refit it") from None
+    try:
+        history = json.loads((path / "history.json").read_text())
+        assert isinstance(history, dict)
+    except (OSError, ValueError, AssertionError):
+        history = new_history()
+    loop = LoopState(int(m["loop"].get("step", 0)), float(m["loop"].get("train_time", 0.0)),
+                     {**new_history(), **history})
+    run = Run(be, recipe, dict(m.get("dataset") or {}), loop, dict(m.get("best") or {}))
+    best = {k[5:]: v for k, v in state.items() if k.startswith("best.")}
+    resume = {"weights": weights, "optimizer": {k[10:]: v for k, v in state.items() if k.startswith("optimizer.")},
+              "state": loop, "best": run.best, "best_weights": best or None, "backend": m["backend"],
+              "metrics": m.get("metrics", {})}
+    return run, resume
+
+
+def config_dict(run: Run) -> dict:
+    """The recipe of a run as plain data (for reports)."""
+    return {"recipe": run.recipe.to_dict(), "train": dataclasses.asdict(run.recipe.train)}

@@ -1,10 +1,17 @@
-"""Configurations of a model and of its training, and how to build a model from them."""
+"""What a training run is made of: the model (field + rendering) and the optimisation.
+
+Values are written in one place only, the recipes (:mod:`.recipes`); the defaults here
+are neutral starting points that every recipe overrides. ``validate()`` refuses values
+that cannot work, with the fix, before any kernel is built.
+"""
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
 
+from ..errors import check_number as check
+from ..fields import field_config
 from ..render.pipeline import RenderConfig
 
 
@@ -21,29 +28,23 @@ def lr_schedule(lr: float, lr_final: float, warmup: int, progress: float, step: 
 class ModelConfig:
     """Which field, with which arguments, rendered how."""
 
-    field: str = "vanilla"
+    field: str = "grid"
     """Field family (``mitnerf.fields.FIELDS``)."""
     field_args: dict = dataclasses.field(default_factory=dict)
     """Keyword arguments of the family's config (``dim`` and ``bound`` come from the data)."""
     render: RenderConfig = dataclasses.field(default_factory=RenderConfig)
-    """Samples, fine pass, background, integral."""
+    """Samples, fine pass, background, integral, occupancy grid."""
 
     def to_dict(self) -> dict:
         return {"field": self.field, "field_args": dict(self.field_args), "render": dataclasses.asdict(self.render)}
 
     @classmethod
     def from_dict(cls, d: dict) -> "ModelConfig":
-        return cls(d.get("field", "vanilla"), dict(d.get("field_args", {})), RenderConfig(**d.get("render", {})))
+        return cls(d.get("field", "grid"), dict(d.get("field_args", {})), RenderConfig(**d.get("render", {})))
 
-
-def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
-    """The fields of a model (``coarse``, and ``fine`` with a separate fine pass), built by
-    ``make_field(family, **args)`` of either backend."""
-    args = {**cfg.field_args, "dim": dim, "bound": bound}
-    fields = {"coarse": make_field(cfg.field, **args)}
-    if cfg.render.n_fine > 0 and cfg.render.separate_fine:
-        fields["fine"] = make_field(cfg.field, **args)
-    return fields
+    def validate(self, dim: int) -> None:
+        self.render.validate()
+        field_config(self.field, **{**self.field_args, "dim": dim})
 
 
 @dataclass
@@ -71,13 +72,15 @@ class TrainConfig:
     coarse_weight: float = 1.0
     """Weight of the coarse pass's photometric loss when there is a fine pass."""
     depth_weight: float = 0.0
-    """Weight of the depth-supervision loss (``mitnerf.train.losses``); 0 disables it."""
+    """Weight of DS-NeRF's depth loss on the dataset's depth (``mitnerf.train.losses``); 0: off."""
     depth_sigma: float = 0.05
     """Standard deviation of the depth-supervision Gaussian (world units)."""
     val_every: int = 250
-    """Validation PSNR every so many steps (0: only at the end)."""
+    """Validate every so many steps (0: only at the end); the best validation is kept."""
     val_views: int = 4
     """Validation views rendered each time."""
+    keep_best: bool = True
+    """End with the weights of the best validation, not the last step (and say so)."""
     seed: int = 0
     """Seed of the initial weights, the ray batches and the sample jitter."""
     threads: int = 2
@@ -90,3 +93,22 @@ class TrainConfig:
     def lr_at(self, progress: float, step: int) -> float:
         """Learning rate after ``progress`` in [0, 1] of the run (``step`` for the warm-up)."""
         return lr_schedule(self.lr, self.lr_final, self.warmup, progress, step)
+
+    def validate(self) -> None:
+        check("iters", self.iters, 1, 10 ** 9, integer=True, flag="--iters")
+        if self.time_budget is not None:
+            check("time_budget", self.time_budget, 0, 10 ** 7, strict_lo=True, flag="--time-budget")
+        check("batch_rays", self.batch_rays, 1, 1 << 22, integer=True, flag="--batch")
+        check("lr", self.lr, 0, 10, strict_lo=True, flag="--lr")
+        check("lr_final", self.lr_final, 0, 10, strict_lo=True, flag="--lr-final")
+        check("warmup", self.warmup, 0, 10 ** 9, integer=True)
+        for name in ("beta1", "beta2"):
+            check(name, getattr(self, name), 0, 0.999999)
+        check("eps", self.eps, 0, 1)
+        check("coarse_weight", self.coarse_weight, 0, 1e6)
+        check("depth_weight", self.depth_weight, 0, 1e6, flag="--depth-weight")
+        check("depth_sigma", self.depth_sigma, 0, 1e6, strict_lo=True, flag="--depth-sigma")
+        check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
+        check("val_views", self.val_views, 1, 10 ** 6, integer=True)
+        check("seed", self.seed, 0, 2 ** 32 - 1, integer=True, flag="--seed")
+        check("threads", self.threads, 1, 1024, integer=True, flag="--threads")

@@ -1,41 +1,29 @@
-"""Fit, evaluate, and write what a person wants to see: the shared path of ``mitnerf fit``,
-``examples/fit_bunny.py`` and the experiments."""
+"""What ``mitnerf fit --out DIR`` writes: the checkpoint, ``metrics.json`` and the pictures
+(loss and validation curves, test views beside ground truth, the depth strip, the density)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
+from .._io import atomic_write_text
 from ..data.dataset import Dataset
+from ..viz.training import plot_curves, save_density, save_renders
 from .checkpoint import save_checkpoint
-from .config import ModelConfig, TrainConfig
-from .trainer import Run, evaluate, fit
+from .evaluate import RunRecord
+from .fit import Run
 
 
-def summary_line(metrics: dict, backend: str, field: str) -> str:
-    return f"test PSNR {metrics['psnr']:.2f} dB, train {metrics['train_time']:.1f} s, {backend} {field}"
-
-
-def fit_and_report(dataset: Dataset, model_cfg: ModelConfig, train_cfg: TrainConfig, backend: str = "drjit",
-                   out: str | Path | None = None, figures: bool = True) -> tuple[Run, dict]:
-    """Train, evaluate on the test split, and (with ``out``) write the checkpoint,
-    ``metrics.json``, the curves, the test renders beside ground truth and the density."""
-    run = fit(dataset, model_cfg, train_cfg, backend)
-    ev = evaluate(run, dataset, "test")
-    metrics = {k: float(v) for k, v in ev.items() if k != "renders"}
-    metrics.update(train_time=run.train_time, steps=run.steps, backend=backend, field=model_cfg.field,
-                   final_val_psnr=run.history["val_psnr"][-1] if run.history["val_psnr"] else None)
-    if out is not None:
-        out = Path(out)
-        save_checkpoint(run, out, {"metrics": metrics})
-        (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
-        (out / "history.json").write_text(json.dumps(run.history, default=float))
-        if figures:
-            from ..viz.training import plot_curves, save_density, save_renders
-
-            title = f"{dataset.meta.get('scene', '')} {backend} {model_cfg.field}"
-            plot_curves(run.history, out / "curves.png", title)
-            save_renders(ev["renders"], dataset["test"], model_cfg.render.background, out, dataset.near, dataset.far)
-            save_density(run.backend, run.bound, dataset.dim, out / "density.png", dataset.meta.get("polygon"),
-                         title=f"density ({title})")
-    return run, metrics
+def write_fit(run: Run, folder: Path, record: RunRecord | None = None, dataset: Dataset | None = None) -> Path:
+    """Write ``run`` into ``folder``; with ``record`` and ``dataset`` also the metrics and figures."""
+    metrics = record.row() if record is not None else {"interrupted_at": run.state.step}
+    save_checkpoint(run, folder, metrics)
+    atomic_write_text(folder / "metrics.json", json.dumps({**metrics, "notes": run.notes}, indent=1, default=float))
+    if record is not None and dataset is not None and record.renders is not None:
+        title = f"{dataset.meta.get('scene', '')} {run.recipe.name} ({run.backend.name})"
+        plot_curves(run.state.history, folder / "curves.png", title)
+        save_renders(record.renders, dataset["test"], run.recipe.model.render.background, folder, dataset.near,
+                     dataset.far)
+        save_density(run.backend.density, run.bound, dataset.dim, folder / "density.png",
+                     dataset.meta.get("polygon"), title=f"density ({title})")
+    return folder

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry.mesh import Mesh, as_mesh
+from .rigs import add_object_mesh
 
 
 def _camera(center, distance: float, azimuth: float, elevation: float):
@@ -32,7 +33,6 @@ def plot_mesh_comparison(learned: Mesh | str | Path, truth_path: str | Path | No
     import pyvista as pv
     import vtk
 
-    from .rigs import add_object_mesh
 
     vtk.vtkObject.GlobalWarningDisplayOff()     # no display here: VTK warns about X on every plot
     learned = as_mesh(learned)

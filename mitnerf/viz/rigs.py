@@ -7,6 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from ..data.cameras import Cameras
+from ..data.color import linear_to_srgb
+from ..scenes.ply import read_ply
+from ..scenes.polygon import outline_color
 
 SPLIT_COLORS = {"train": "tab:blue", "val": "tab:orange", "test": "tab:green"}
 
@@ -19,7 +22,6 @@ def plot_rig_2d(cameras: dict[str, Cameras], outline: np.ndarray | None, path: s
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..scenes.polygon import outline_color
 
     fig, ax = plt.subplots(figsize=(6, 6))
     if outline is not None:
@@ -66,8 +68,6 @@ def object_mesh(mesh_path: str | Path, texture_path: str | Path | None = None):
     """A pyvista mesh of one of our PLYs, with its vertex colours (or UVs + texture)."""
     import pyvista as pv
 
-    from ..data.color import linear_to_srgb
-    from ..scenes.ply import read_ply
 
     ply = read_ply(mesh_path)
     faces = np.c_[np.full(len(ply["faces"]), 3), ply["faces"]].ravel()

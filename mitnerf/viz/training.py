@@ -34,21 +34,22 @@ def plot_curves(history: dict, path: str | Path, title: str = "") -> Path:
     return path
 
 
-def density_grid(backend, bound: float, dim: int, res: int = 256) -> np.ndarray:
-    """The final field's density on a ``res x res`` grid over ``[-bound, bound]^2`` (3D: the z = 0 slice)."""
+def density_image(density, bound: float, dim: int, res: int = 256) -> np.ndarray:
+    """``density(points) -> [m]`` on a ``res x res`` grid over ``[-bound, bound]^2`` (3D: the z = 0
+    slice), image row 0 at +y: the picture of a field's geometry."""
     u = np.linspace(-bound, bound, res, dtype=np.float32)
     X, Y = np.meshgrid(u, u[::-1])                      # image row 0 is +y
     pts = np.stack([X.ravel(), Y.ravel()] + ([np.zeros(X.size, np.float32)] if dim == 3 else []), 1)
-    return backend.density(pts).reshape(res, res)
+    return np.asarray(density(pts)).reshape(res, res)
 
 
-def save_density(backend, bound: float, dim: int, path: str | Path, outline=None, title="density") -> Path:
+def save_density(density, bound: float, dim: int, path: str | Path, outline=None, title="density") -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    sigma = density_grid(backend, bound, dim)
+    sigma = density_image(density, bound, dim)
     fig, ax = plt.subplots(figsize=(4.4, 4.2))
     im = ax.imshow(np.log10(1e-2 + np.maximum(sigma, 0)), cmap="magma", extent=(-bound, bound, -bound, bound))
     if outline is not None:

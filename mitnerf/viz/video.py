@@ -40,7 +40,9 @@ from tqdm.auto import tqdm
 
 from ..data.cameras import Cameras
 from ..data.color import to_uint8
+from ..data.rig import look_at_3d
 from ..errors import MitnerfError
+from .strips import colorize_depth
 
 
 @dataclass
@@ -86,7 +88,6 @@ class OrbitConfig:
 
 def orbit_cameras(cfg: OrbitConfig) -> Cameras:
     """``n_frames`` cameras on the orbit, each looking at ``cfg.center``."""
-    from ..data.rig import look_at_3d
 
     cfg.validate()
     az = np.radians(cfg.start_azimuth) + 2 * np.pi * np.arange(cfg.n_frames) / cfg.n_frames   # [n]
@@ -149,7 +150,6 @@ def depth_frames(depth: np.ndarray, background=(1.0, 1.0, 1.0), near: float | No
         lo, hi = np.percentile(depth[hit], [1, 99])
         near = lo if near is None else near
         far = hi if far is None else far
-    from .strips import colorize_depth
 
     rgb = colorize_depth(depth, near, far)                # misses are black ...
     return np.where(hit[..., None], rgb, np.asarray(background, np.float32)).astype(np.float32)  # ... now background

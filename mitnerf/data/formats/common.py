@@ -1,48 +1,249 @@
-"""Shared reading helpers: JSON, images and our provenance file, with errors that say the fix."""
+"""Reading hostile files: every value is checked before it is used, every failure is one
+:class:`~mitnerf.errors.DataError` line that names the file, the problem and the fix.
+
+* JSON (:func:`read_json`, :func:`get`): syntax, the type of every value used.
+* Numbers (:func:`number`): real numbers only (``true`` is not a focal length), finite,
+  within plausible bounds.
+* Poses (:func:`check_poses`): finite, the rotation block orthonormal with determinant
+  +1 (no scale, shear or mirror), the bottom row ``0 ... 0 1``.
+* Images (:func:`image_size`, :func:`read_image`): the header is read first, so a
+  corrupt, truncated or absurdly large file is refused before it is decoded; views
+  larger than ``MAX_SIDE`` pixels, or a dataset that would not fit in memory
+  (:func:`check_memory`), are refused with the estimate.
+* Arrays (:func:`read_npz`, :func:`read_npy`): never unpickled; shape and dtype checked.
+"""
 
 from __future__ import annotations
 
 import json
+import math
+import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import MitnerfError
+from ...errors import DataError
 
 META = "mitnerf.json"
+MAX_SIDE = 16384
+"""Largest image side mitnerf accepts (pixels)."""
+BYTES_PER_PIXEL = 96
+"""Memory a training pixel costs: colour, coverage, depth, mask, its ray, and device copies."""
 
 
 def read_json(path: Path) -> dict:
+    path = Path(path)
     try:
-        return json.loads(Path(path).read_text())
+        data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise MitnerfError(f"{path} does not exist; point at a dataset folder written by `mitnerf dataset`") from None
+        raise DataError(f"{path} does not exist; point at a dataset folder written by `mitnerf dataset`") from None
     except OSError as exc:
-        raise MitnerfError(f"cannot read {path}: {exc.strerror}; check the path and its permissions") from None
+        raise DataError(f"cannot read {path}: {exc.strerror}; check the path and its permissions") from None
+    except UnicodeDecodeError:
+        raise DataError(f"{path} is not UTF-8 text; fix or regenerate it") from None
     except json.JSONDecodeError as exc:
-        raise MitnerfError(f"{path} is not valid JSON ({exc.msg} at line {exc.lineno}); fix or regenerate it") from None
+        raise DataError(f"{path} is not valid JSON ({exc.msg} at line {exc.lineno}); fix or regenerate it") from None
+    except RecursionError:
+        raise DataError(f"{path} nests too deeply to be a dataset file; fix or regenerate it") from None
+    if not isinstance(data, dict):
+        raise DataError(f"{path} must hold a JSON object, got {type(data).__name__}; fix or regenerate it")
+    return data
+
+
+_TYPES = {dict: "an object", list: "a list", str: "a string"}
+
+
+def get(obj: dict, key: str, kind: type, where: str, default=...):
+    """``obj[key]`` if it is of ``kind``; a missing key is an error unless ``default`` is given."""
+    if key not in obj:
+        if default is not ...:
+            return default
+        raise DataError(f"{where} lacks {key!r}; add it")
+    value = obj[key]
+    if not isinstance(value, kind):
+        raise DataError(f"{where}: {key!r} must be {_TYPES.get(kind, kind.__name__)}, got {json.dumps(value)[:40]}")
+    return value
+
+
+def number(value, what: str, lo: float | None = None, hi: float | None = None, strict_lo: bool = True) -> float:
+    """A real number (not a bool, not a string), finite, within ``(lo, hi]``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise DataError(f"{what} must be a number, got {json.dumps(value, default=str)[:40]}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise DataError(f"{what} must be finite, got {v}")
+    if lo is not None and (v <= lo if strict_lo else v < lo):
+        raise DataError(f"{what} must be {'>' if strict_lo else '>='} {lo:g}, got {v:g}")
+    if hi is not None and v > hi:
+        raise DataError(f"{what} = {v:g} is implausibly large (at most {hi:g}); check its unit")
+    return v
+
+
+def integer(value, what: str, lo: int = 1, hi: int = MAX_SIDE) -> int:
+    v = number(value, what, lo, hi, strict_lo=False)
+    if not v.is_integer():
+        raise DataError(f"{what} must be a whole number, got {v:g}")
+    return int(v)
+
+
+def matrices(frames: list, key: str, size: int, where: str) -> np.ndarray:
+    """``[n, size, size]`` float64 from ``frame[key]`` of every frame (lists of numbers)."""
+    out = np.empty((len(frames), size, size))
+    for i, f in enumerate(frames):
+        m = f.get(key) if isinstance(f, dict) else None
+        try:
+            if m is None or any(isinstance(v, bool) for row in m for v in row):
+                raise TypeError
+            a = np.array(m, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise DataError(f"{where}: frame {i} needs {key!r} as a {size}x{size} list of numbers") from None
+        if a.shape != (size, size):
+            raise DataError(f"{where}: frame {i} has a {key!r} of shape {a.shape}, expected ({size}, {size})")
+        out[i] = a
+    return out
+
+
+def check_poses(poses: np.ndarray, where: str) -> None:
+    """Camera-to-world matrices ``[n, k+1, k+1]``: finite, a proper rotation, ``0 .. 0 1`` below."""
+    k = poses.shape[-1] - 1
+    for i, P in enumerate(poses):
+        if not np.isfinite(P).all():
+            raise DataError(f"{where}: pose {i} contains NaN or infinity; fix or drop that frame")
+        R = P[:k, :k]
+        err = float(np.abs(R.T @ R - np.eye(k)).max())
+        if err > 1e-3:
+            raise DataError(f"{where}: the rotation of pose {i} is not orthonormal (|R^T R - I| = {err:.3g}: "
+                            "scaled, sheared or degenerate); give rigid camera-to-world matrices")
+        if np.linalg.det(R) < 0:
+            raise DataError(f"{where}: pose {i} is a mirror image (determinant -1); give a proper rotation")
+        if np.abs(P[k, :k]).max() > 1e-6 or abs(P[k, k] - 1) > 1e-6:
+            raise DataError(f"{where}: pose {i}'s last row must be 0 ... 0 1")
+        if np.abs(P[:k, k]).max() > 1e6:
+            raise DataError(f"{where}: pose {i} stands {np.abs(P[:k, k]).max():.3g} units away; check the units")
+
+
+def check_focal(focal: float, pixels: int, where: str) -> float:
+    """A focal length in pixels for an image ``pixels`` wide: a field of view in (0.05, 179) degrees."""
+    f = number(focal, f"{where}: the focal length")
+    fov = math.degrees(2 * math.atan(pixels / (2 * f)))
+    if not 0.05 < fov < 179:
+        raise DataError(f"{where}: focal length {f:g} px gives a {fov:.3g} degree field of view at {pixels} px; "
+                        "check the focal length and its unit (pixels)")
+    return f
+
+
+def image_size(path: Path) -> tuple[int, int]:
+    """``(H, W)`` from the image header, without decoding it; refuses oversized views."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as im:
+            w, h = im.size
+    except FileNotFoundError:
+        raise DataError(f"image {path} is missing; every frame needs its image") from None
+    except Exception as exc:  # noqa: BLE001 - PIL raises many types for corrupt headers
+        raise DataError(f"cannot read image {path} ({type(exc).__name__}); replace the file") from None
+    if max(w, h) > MAX_SIDE or min(w, h) < 1:
+        raise DataError(f"image {path} is {w} x {h} pixels; mitnerf takes views of 1 to {MAX_SIDE} pixels per side: "
+                        "downsample it")
+    return h, w
 
 
 def read_image(path: Path) -> np.ndarray:
     """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``."""
     import imageio.v3 as iio
 
+    image_size(path)
     try:
         img = iio.imread(path)
-    except FileNotFoundError:
-        raise MitnerfError(f"image {path} is missing; every frame needs its image") from None
-    except Exception as exc:  # imageio raises many types for corrupt files
-        raise MitnerfError(f"cannot read image {path} ({type(exc).__name__}); replace the file") from None
+    except Exception as exc:  # noqa: BLE001 - imageio raises many types for corrupt files
+        raise DataError(f"cannot decode image {path} ({type(exc).__name__}: truncated or corrupt); "
+                        "replace the file") from None
+    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 2, 3, 4)):
+        raise DataError(f"image {path} has shape {img.shape}; expected grey, RGB or RGBA")
+    if img.dtype.kind not in "uif":
+        raise DataError(f"image {path} holds {img.dtype} pixels; save it as 8- or 16-bit PNG")
     scale = 65535.0 if img.dtype == np.uint16 else 255.0 if img.dtype == np.uint8 else 1.0
-    return img.astype(np.float32) / scale
+    out = img.astype(np.float32) / scale
+    if not np.isfinite(out).all():
+        raise DataError(f"image {path} contains NaN or infinite pixels; replace the file")
+    return out
+
+
+def as_rgba(img: np.ndarray) -> np.ndarray:
+    """Grey / grey+alpha / RGB / RGBA -> ``[H, W, 4]`` (alpha 1 where there is none)."""
+    if img.ndim == 2:
+        img = img[..., None]
+    c = img.shape[-1]
+    rgb = np.repeat(img[..., :1], 3, -1) if c in (1, 2) else img[..., :3]
+    alpha = img[..., -1:] if c in (2, 4) else np.ones(img.shape[:2] + (1,), np.float32)
+    return np.concatenate([rgb, alpha], -1).astype(np.float32)
+
+
+def read_npz(path: Path, where: str | None = None) -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` file, never unpickled."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: np.asarray(z[k]) for k in z.files}
+    except FileNotFoundError:
+        raise DataError(f"{path} is missing; restore it or drop the frame") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise DataError(f"{where or path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+
+
+def read_npy(path: Path, shape: tuple, where: str) -> np.ndarray:
+    """A float array of ``shape`` from an ``.npy`` file, never unpickled."""
+    try:
+        a = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise DataError(f"{path} is missing; restore it or drop the frame") from None
+    except (OSError, ValueError, EOFError) as exc:
+        raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+    if not isinstance(a, np.ndarray) or a.dtype.kind not in "uif" or a.size != int(np.prod(shape)):
+        raise DataError(f"{where}: {path.name} holds {getattr(a, 'shape', '?')} values, expected {shape}")
+    return a.astype(np.float32).reshape(shape)
+
+
+def check_memory(n_pixels: int, where: str) -> None:
+    """Refuse, before loading, a dataset whose pixels would not fit in the machine's memory."""
+    need = n_pixels * BYTES_PER_PIXEL
+    try:
+        avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError):
+        return
+    if need > avail:
+        raise DataError(f"{where} has {n_pixels:,} pixels, which need about {need / 2**30:.1f} GiB to train on; "
+                        f"this machine has {avail / 2**30:.1f} GiB free: use fewer or smaller views")
 
 
 def write_meta(folder: Path, dataset, fmt: str) -> None:
-    meta = {**dataset.meta, "format": fmt, "near": dataset.near, "far": dataset.far,
-            "splits": {k: len(v) for k, v in dataset.splits.items()}}
+    meta = {k: v for k, v in dataset.meta.items() if k != "path"}
+    meta.update(format=fmt, near=dataset.near, far=dataset.far, splits={k: len(v) for k, v in dataset.splits.items()})
     (folder / META).write_text(json.dumps(meta, indent=1))
 
 
 def read_meta(folder: Path) -> dict:
+    """Our provenance file, when there is one (checked like any input)."""
     path = Path(folder) / META
-    return read_json(path) if path.exists() else {}
+    if not path.exists():
+        return {}
+    meta = read_json(path)
+    for key in ("near", "far"):
+        if key in meta:
+            number(meta[key], f"{path}: {key!r}", 0, 1e6, strict_lo=False)
+    if "near" in meta and "far" in meta and not meta["near"] < meta["far"]:
+        raise DataError(f"{path}: near ({meta['near']}) must be smaller than far ({meta['far']}); fix the file")
+    if "polygon" in meta:
+        try:
+            pts = np.asarray(meta["polygon"], np.float64)
+            assert pts.ndim == 2 and pts.shape[1] == 2 and len(pts) >= 3 and np.isfinite(pts).all()
+        except (TypeError, ValueError, AssertionError):
+            raise DataError(f"{path}: 'polygon' must be a list of [x, y] points; fix or delete the key") from None
+    if "background" in meta:
+        bg = meta["background"]
+        if not (isinstance(bg, list) and len(bg) == 3):
+            raise DataError(f"{path}: 'background' must be [r, g, b]; fix or delete the key")
+        for v in bg:
+            number(v, f"{path}: a background value", 0, 1, strict_lo=False)
+    return meta

@@ -10,7 +10,8 @@
 Frame ``i`` of ``transforms.json`` belongs to ``cam-{i}.*``. Pixel row ``i`` looks
 along ``normalize([f, H/2 - (i + 0.5)])`` rotated by the pose's 2x2 block (see
 :mod:`mitnerf.data.cameras`). Our ``.npz`` files add ``rgb_linear``, ``alpha`` and
-``mask``, which the original loader ignores; datasets from the add-on load without them.
+``mask``, which the original loader ignores; folders from the add-on load without them
+(and may store images as ``1 x H`` rows).
 """
 
 from __future__ import annotations
@@ -20,92 +21,91 @@ from pathlib import Path
 
 import numpy as np
 
-from ..._io import atomic_dir
-from ...errors import MitnerfError
+from ...errors import DataError
 from ..cameras import Cameras
 from ..color import display_color, to_uint8
 from ..dataset import SPLITS, Dataset, Split
-from .common import read_image, read_json, read_meta, write_meta
+from .common import (as_rgba, check_focal, check_memory, check_poses, get, image_size, matrices, read_image,
+                     read_json, read_meta, read_npz, write_meta)
 
 
-def write_nerf2d(dataset: Dataset, out: str | Path) -> Path:
-    """Write ``dataset`` (2D) atomically to the folder ``out``."""
+def write_nerf2d(dataset: Dataset, folder: Path) -> None:
+    """Write ``dataset`` (2D) into the (new, empty) ``folder``."""
     import imageio.v3 as iio
 
     if dataset.dim != 2:
-        raise MitnerfError("the NeRF2D format holds 2D datasets only; use --format blender for 3D")
-    out = Path(out)
-    with atomic_dir(out) as tmp:
-        for name, split in dataset.splits.items():
-            d = tmp / name
-            d.mkdir()
-            cams = split.cameras
-            frames = [{"transform_matrix": p.tolist()} for p in cams.poses]
-            (d / "transforms.json").write_text(json.dumps({"focal": cams.focal, "frames": frames}, indent=1))
-            K = np.array([[cams.focal, 0, 0], [0, cams.focal, (cams.height - 1) / 2], [0, 0, 1]])
-            for i in range(len(split)):
-                rgba = np.concatenate([split.color[i], split.alpha[i][..., None]], -1)
-                iio.imwrite(d / f"cam-{i}.png", to_uint8(rgba))
-                extra = {}
-                if split.depth is not None:
-                    extra["depth_map"] = np.where(np.isfinite(split.depth[i]), split.depth[i], -1.0).astype(np.float32)
-                if split.mask is not None:
-                    extra["mask"] = split.mask[i]
-                if split.linear is not None:
-                    extra["rgb_linear"] = split.linear[i]
-                np.savez(d / f"cam-{i}.npz", intrinsic_mat=K, alpha=split.alpha[i], **extra)
-        write_meta(tmp, dataset, "nerf2d")
-    return out
+        raise DataError("the NeRF2D format holds 2D datasets only; use --format blender or nerfstudio for 3D")
+    for name, split in dataset.splits.items():
+        d = folder / name
+        d.mkdir()
+        cams = split.cameras
+        frames = [{"transform_matrix": p.tolist()} for p in cams.poses]
+        (d / "transforms.json").write_text(json.dumps({"focal": cams.focal, "frames": frames}, indent=1))
+        K = np.array([[cams.focal, 0, 0], [0, cams.focal, (cams.height - 1) / 2], [0, 0, 1]])
+        for i in range(len(split)):
+            rgba = np.concatenate([split.color[i], split.alpha[i][..., None]], -1)
+            iio.imwrite(d / f"cam-{i}.png", to_uint8(rgba))
+            extra = {}
+            if split.depth is not None:
+                extra["depth_map"] = np.where(np.isfinite(split.depth[i]), split.depth[i], -1.0).astype(np.float32)
+            if split.mask is not None:
+                extra["mask"] = split.mask[i]
+            if split.linear is not None:
+                extra["rgb_linear"] = split.linear[i]
+            np.savez(d / f"cam-{i}.npz", intrinsic_mat=K, alpha=split.alpha[i], **extra)
+    write_meta(folder, dataset, "nerf2d")
+
+
+def _column(a: np.ndarray, H: int, what: str) -> np.ndarray:
+    """A per-pixel array of an ``H``-pixel view (``H``, ``H x 1`` or ``1 x H``) as ``[H, 1]``."""
+    if a.size != H or a.dtype.kind not in "uifb":
+        raise DataError(f"{what} holds {a.shape} {a.dtype} values, expected {H} numbers (one per pixel)")
+    return a.reshape(H, 1)
 
 
 def _read_split(d: Path) -> Split:
+    where = str(d / "transforms.json")
     data = read_json(d / "transforms.json")
-    try:
-        focal = float(data["focal"])
-        poses = np.array([f["transform_matrix"] for f in data["frames"]], dtype=np.float64)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise MitnerfError(f"{d / 'transforms.json'} is not a NeRF2D transforms file ({exc!r} missing or "
-                           "malformed); it needs 'focal' and 'frames' with 3x3 'transform_matrix'") from None
-    n = len(poses)
-    pngs = sorted(d.glob("cam-*.png"))
-    if len(pngs) != n:
-        raise MitnerfError(f"{d}: transforms.json has {n} poses but the folder has {len(pngs)} cam-*.png images; "
-                           "every frame i needs its cam-i.png")
-    if n == 0:
-        raise MitnerfError(f"{d}: the split has no frames; add views or drop the split folder")
-    if poses.shape[1:] != (3, 3):
-        raise MitnerfError(f"{d}: NeRF2D poses are 3x3 matrices, got {poses.shape[1:]}")
-    images = []
-    for i in range(n):
-        img = read_image(d / f"cam-{i}.png")
-        if img.ndim == 2:            # a greyscale H x 1 image
-            img = np.repeat(img[..., None], 3, -1)
-        images.append(img)
-    shapes = {im.shape[:2] for im in images}
-    if len(shapes) != 1:
-        raise MitnerfError(f"{d}: images have different sizes {sorted(shapes)}; all views need one resolution")
-    img = np.stack(images)
-    H, W = img.shape[1:3]
-    if W != 1 and H == 1:            # written as a 1 x H row: turn it into H x 1
-        img = img.transpose(0, 2, 1, 3)
-        H, W = W, 1
-    cams = Cameras(poses, focal, H, 1)
-    color = img[..., :3]
-    alpha = img[..., 3] if img.shape[-1] == 4 else np.ones(img.shape[:3], np.float32)
+    frames = get(data, "frames", list, where)
+    if not frames:
+        raise DataError(f"{d}: the split has no frames; add views or drop the split folder")
+    poses = matrices(frames, "transform_matrix", 3, where)
+    check_poses(poses, where)
+    n = len(frames)
+    pngs = [d / f"cam-{i}.png" for i in range(n)]
+    found = len(list(d.glob("cam-*.png")))
+    if found != n or not all(p.exists() for p in pngs):
+        raise DataError(f"{d}: transforms.json has {n} poses but the folder has {found} cam-*.png images; "
+                        "every frame i needs its cam-i.png")
+    sizes = {image_size(p) for p in pngs}
+    if len(sizes) != 1:
+        raise DataError(f"{d}: images have different sizes {sorted(sizes)}; all views need one resolution")
+    h, w = sizes.pop()
+    if min(h, w) != 1:
+        raise DataError(f"{d}: views are {h} x {w} pixels; NeRF2D views are one pixel wide (H x 1)")
+    H = max(h, w)
+    check_memory(n * H, str(d))
+    focal = check_focal(get(data, "focal", (int, float), where), H, where)
+    img = np.stack([as_rgba(read_image(p)).reshape(H, 1, 4) for p in pngs])     # a 1 x H row becomes H x 1
+    color, alpha = img[..., :3], img[..., 3]
     depth = mask = linear = None
     npz = [d / f"cam-{i}.npz" for i in range(n)]
     if all(p.exists() for p in npz):
-        files = [np.load(p) for p in npz]
+        files = [read_npz(p) for p in npz]
         if all("depth_map" in f for f in files):
-            raw = np.stack([np.asarray(f["depth_map"], np.float32).reshape(H, 1) for f in files])
+            raw = np.stack([_column(f["depth_map"], H, str(p)) for f, p in zip(files, npz)]).astype(np.float32)
+            if not np.isfinite(raw).all():
+                raise DataError(f"{d}: a depth_map holds NaN or infinity; misses are stored as -1")
             depth = np.where(raw < 0, np.inf, raw).astype(np.float32)
-            mask = (np.stack([f["mask"].reshape(H, 1) for f in files]) if all("mask" in f for f in files)
-                    else np.isfinite(depth))
+            mask = (np.stack([_column(f["mask"], H, str(p)) for f, p in zip(files, npz)]).astype(bool)
+                    if all("mask" in f for f in files) else np.isfinite(depth))
         if all("rgb_linear" in f and "alpha" in f for f in files):
-            linear = np.stack([f["rgb_linear"].reshape(H, 1, 3) for f in files]).astype(np.float32)
-            alpha = np.stack([f["alpha"].reshape(H, 1) for f in files]).astype(np.float32)
+            linear = np.stack([f["rgb_linear"] for f in files]).astype(np.float32)
+            alpha = np.stack([_column(f["alpha"], H, str(p)) for f, p in zip(files, npz)]).astype(np.float32)
+            if linear.shape != (n, H, 1, 3) or not (np.isfinite(linear).all() and np.isfinite(alpha).all()):
+                raise DataError(f"{d}: rgb_linear must be finite H x 1 x 3 arrays; regenerate the dataset")
             color = display_color(linear, alpha)
-    return Split(cams, color.astype(np.float32), alpha.astype(np.float32), depth, mask, linear)
+    return Split(Cameras(poses, focal, H, 1), color.astype(np.float32), alpha.astype(np.float32), depth, mask, linear)
 
 
 def read_nerf2d(path: str | Path) -> Dataset:
@@ -113,7 +113,7 @@ def read_nerf2d(path: str | Path) -> Dataset:
     path = Path(path)
     splits = {s: _read_split(path / s) for s in SPLITS if (path / s / "transforms.json").exists()}
     if "train" not in splits:
-        raise MitnerfError(f"{path} has no train/transforms.json; point at a NeRF2D dataset folder")
+        raise DataError(f"{path} has no train/transforms.json; point at a NeRF2D dataset folder")
     meta = read_meta(path)
     near, far = meta.get("near"), meta.get("far")
     if near is None or far is None:

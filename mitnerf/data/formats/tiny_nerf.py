@@ -14,46 +14,55 @@ from pathlib import Path
 
 import numpy as np
 
-from ..._io import atomic_write_bytes
-from ...errors import MitnerfError
+from ...errors import DataError
 from ..cameras import Cameras
 from ..dataset import Dataset, Split
+from .common import check_focal, check_memory, check_poses, integer, read_npz
 
 
 def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dataset:
     path = Path(path)
-    try:
-        data = np.load(path)
-        images, poses, focal = data["images"], data["poses"], float(data["focal"])
-    except (OSError, ValueError) as exc:
-        raise MitnerfError(f"cannot read {path} as an .npz file ({exc}); download tiny_nerf_data.npz again") from None
-    except KeyError as exc:
-        raise MitnerfError(f"{path} lacks {exc}; a tiny-NeRF file has 'images', 'poses' and 'focal'") from None
-    if len(images) != len(poses):
-        raise MitnerfError(f"{path}: {len(images)} images but {len(poses)} poses; they must match one to one")
-    if len(images) < 3:
-        raise MitnerfError(f"{path} has {len(images)} frames; need at least 3 (train, val, test)")
-    n_train = int(data["n_train"]) if "n_train" in data else min(100, len(images) - 2)
-    n_val = int(data["n_val"]) if "n_val" in data else 1
-    index = {"train": slice(0, n_train), "val": slice(n_train, n_train + n_val),
-             "test": slice(n_train + n_val, None)}
-    H, W = images.shape[1:3]
+    data = read_npz(path)
+    missing = [k for k in ("images", "poses", "focal") if k not in data]
+    if missing:
+        raise DataError(f"{path} lacks {', '.join(missing)}; a tiny-NeRF file has 'images', 'poses' and 'focal'")
+    images, poses, focal = data["images"], data["poses"], data["focal"]
+    if images.ndim != 4 or images.shape[-1] not in (3, 4) or images.dtype.kind not in "uif":
+        raise DataError(f"{path}: 'images' must be [N, H, W, 3] numbers, got {images.shape} {images.dtype}")
+    if poses.shape != (len(images), 4, 4) or poses.dtype.kind not in "if":
+        raise DataError(f"{path}: {len(images)} images need 'poses' of shape [{len(images)}, 4, 4], got {poses.shape}")
+    if focal.size != 1 or focal.dtype.kind not in "if":
+        raise DataError(f"{path}: 'focal' must be one number (pixels), got {focal.shape} {focal.dtype}")
+    n, H, W = images.shape[:3]
+    if max(H, W) > 16384:
+        raise DataError(f"{path}: views of {H} x {W} pixels are too large; downsample them")
+    if n < 3:
+        raise DataError(f"{path} has {n} frames; need at least 3 (train, val, test)")
+    check_memory(n * H * W, str(path))
+    check_poses(poses.astype(np.float64), str(path))
+    focal = check_focal(float(focal.reshape(-1)[0]), W, str(path))
+    n_train = integer(data["n_train"].reshape(-1)[0], f"{path}: n_train", 1, n - 1) if "n_train" in data \
+        else min(100, n - 2)
+    n_val = integer(data["n_val"].reshape(-1)[0], f"{path}: n_val", 0, n - n_train - 1) if "n_val" in data else 1
+    img = images[..., :3].astype(np.float32) / (255.0 if images.dtype == np.uint8 else 1.0)
+    if not np.isfinite(img).all():
+        raise DataError(f"{path}: 'images' contains NaN or infinity; replace the file")
+    index = {"train": slice(0, n_train), "val": slice(n_train, n_train + n_val), "test": slice(n_train + n_val, None)}
     splits = {}
     for name, sl in index.items():
-        cams = Cameras(poses[sl], focal, H, W)
-        color = np.clip(images[sl, ..., :3], 0, 1).astype(np.float32)
-        splits[name] = Split(cams, color, np.ones(color.shape[:3], np.float32))
+        color = np.clip(img[sl], 0, 1)
+        splits[name] = Split(Cameras(poses[sl], focal, H, W), color, np.ones(color.shape[:3], np.float32))
     return Dataset(splits, near, far, {"format": "tiny_nerf", "scene": path.stem, "background": [0.0] * 3})
 
 
-def write_tiny_nerf(dataset: Dataset, path: str | Path) -> Path:
-    """Write train + val + test (in that order, composited over the dataset's background)."""
+def tiny_nerf_bytes(dataset: Dataset) -> bytes:
+    """The file of train + val + test (in that order, composited over the dataset's background)."""
     if dataset.dim != 3:
-        raise MitnerfError("tiny-NeRF files hold 3D datasets only")
+        raise DataError("tiny-NeRF files hold 3D datasets only")
     order = [dataset[s] for s in ("train", "val", "test")]
     images = np.concatenate([s.target(dataset.background) for s in order]).astype(np.float32)
     poses = np.concatenate([s.cameras.poses for s in order]).astype(np.float32)
     buf = io.BytesIO()
     np.savez(buf, images=images, poses=poses, focal=np.float32(order[0].cameras.focal),
              n_train=len(order[0]), n_val=len(order[1]))
-    return atomic_write_bytes(Path(path), buf.getvalue())
+    return buf.getvalue()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ...errors import MitnerfError
 from ...fields import field_config
 from .grid import GridField
 from .hashgrid import HashGridField
@@ -12,7 +13,5 @@ TORCH_FIELDS = {"vanilla": NeRFField, "grid": GridField, "hashgrid": HashGridFie
 
 def make_field(kind: str, **kwargs):
     if kind not in TORCH_FIELDS:
-        from ...errors import MitnerfError
-
         raise MitnerfError(f"field {kind!r} has no PyTorch twin; use --backend drjit")
     return TORCH_FIELDS[kind](field_config(kind, **kwargs))

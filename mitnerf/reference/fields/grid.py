@@ -8,6 +8,7 @@ import torch
 from torch import nn
 
 from ...fields.grid import GridConfig
+from ...rng import hash_u32
 from .mlp import density_activation
 
 
@@ -100,8 +101,6 @@ class GridField(nn.Module):
         cfg = self.cfg
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
-        from ..render.samplers import hash_u32
-
         res, n = self.res, self.res ** self.dim
         if cfg.tv_samples and cfg.tv_samples < n:
             with np.errstate(over="ignore"):

@@ -7,6 +7,7 @@ import torch
 from torch import nn
 
 from ...render.pipeline import RenderConfig, join_params, split_params
+from .occupancy import occupied_samples
 from .samplers import Stratified, importance_sample
 from .volume import RenderOutput, volume_render
 
@@ -48,8 +49,6 @@ class Model(nn.Module):
         cfg = self.render_cfg
         n = origins.shape[0]
         if occupancy is not None and cfg.occupancy.enabled:
-            from .occupancy import occupied_samples
-
             coarse = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse,
                                       int(np.uint32(seed)), training)
         else:
@@ -57,9 +56,15 @@ class Model(nn.Module):
         out_c = volume_render(self.fields["coarse"], origins, directions, near, far, coarse, cfg.background,
                               weights=True)
         if cfg.n_fine <= 0:
-            return {"coarse": out_c if weights else RenderOutput(out_c.rgb, out_c.depth, out_c.opacity), "fine": None}
+            result = {"coarse": out_c if weights else RenderOutput(out_c.rgb, out_c.depth, out_c.opacity), "fine": None}
+            if weights:
+                result["samples"] = coarse.points(n, near, far)
+            return result
         t, delta = coarse.points(n, near, far)
         fine = importance_sample(t, delta, out_c.weights, cfg.n_fine, int(np.uint32(seed)), training)
         g = "fine" if "fine" in self.fields else "coarse"
         out_f = volume_render(self.fields[g], origins, directions, near, far, fine, cfg.background, weights=weights)
-        return {"coarse": out_c, "fine": out_f}
+        result = {"coarse": out_c, "fine": out_f}
+        if weights:
+            result["samples"] = fine.points(n, near, far)
+        return result

@@ -1,5 +1,5 @@
 """Twin of :mod:`mitnerf.render.samplers`: the same sample positions, bit for bit in the
-hash (computed in numpy uint32, whose multiplication wraps like Dr.Jit's UInt32)."""
+hash (:mod:`mitnerf.rng`, numpy uint32, whose multiplication wraps like Dr.Jit's UInt32)."""
 
 from __future__ import annotations
 
@@ -8,21 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-
-def hash_u32(x: np.ndarray) -> np.ndarray:
-    x = np.asarray(x, dtype=np.uint32)
-    x = x ^ (x >> np.uint32(16))
-    x = x * np.uint32(0x7FEB352D)
-    x = x ^ (x >> np.uint32(15))
-    x = x * np.uint32(0x846CA68B)
-    return x ^ (x >> np.uint32(16))
-
-
-def uniform(seed: int, ray: np.ndarray, i: np.ndarray) -> np.ndarray:
-    with np.errstate(over="ignore"):
-        h = hash_u32(hash_u32(np.uint32(seed)) ^ ray.astype(np.uint32)) ^ (i.astype(np.uint32) * np.uint32(0x9E3779B9))
-        h = hash_u32(h)
-    return (h >> np.uint32(8)).astype(np.float32) * np.float32(1.0 / 16777216.0)
+from ...rng import uniform_np as uniform
 
 
 @dataclass

@@ -13,8 +13,8 @@ def mse(rgb: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     return torch.mean((rgb - target) ** 2)
 
 
-def depth_kl(weights, t, delta, depth, hit, sigma: float) -> torch.Tensor:
-    """``weights, t, delta [n_rays, N]``, ``depth, hit [n_rays]``."""
+def depth_kl(weights, t, delta, depth, hit, N: int, sigma: float) -> torch.Tensor:
+    """``weights, t, delta [n_rays, N]``, ``depth, hit [n_rays]`` (``N`` as in the Dr.Jit signature)."""
     z = (t - depth[:, None]) / sigma
     log_q = -0.5 * z * z - math.log(sigma * math.sqrt(2.0 * math.pi))
     safe = torch.clamp(delta, min=1e-12)

@@ -1,10 +1,11 @@
-"""Matplotlib panels shared by the experiments' figure grids."""
+"""Matplotlib panels shared by the experiments' figure grids (views strips, depth, density)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..viz.strips import colorize_depth, views_strip
+from .strips import colorize_depth, views_strip
+from .training import density_image
 
 
 def strip_panel(ax, images: np.ndarray, title: str = "") -> None:
@@ -24,10 +25,8 @@ def depth_panel(ax, depth: np.ndarray, opacity: np.ndarray | None, near: float, 
 
 def density_panel(ax, source, bound: float, outline=None, title: str = "", res: int = 160) -> None:
     """Density over ``[-bound, bound]^2`` (log scale), the true outline on top. ``source`` is
-    a backend (its final field is sampled on a ``res x res`` grid) or that grid already."""
-    from ..viz.training import density_grid
-
-    sigma = source if isinstance(source, np.ndarray) else density_grid(source, bound, 2, res)
+    a density function (sampled on a ``res x res`` grid) or that grid already."""
+    sigma = source if isinstance(source, np.ndarray) else density_image(source, bound, 2, res)
     ax.imshow(np.log10(1e-2 + np.maximum(sigma, 0)), cmap="magma", extent=(-bound, bound, -bound, bound),
               vmin=-2, vmax=2.5)
     if outline is not None:
@@ -39,8 +38,18 @@ def density_panel(ax, source, bound: float, outline=None, title: str = "", res: 
 
 def save(fig, path, dpi: int = 110) -> None:
     """Lay out, write and close a figure."""
-    fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
     import matplotlib.pyplot as plt
 
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt

@@ -1,4 +1,4 @@
-"""Ground-truth renders with Mitsuba: colour, coverage, exact depth and mask.
+"""Ground-truth rendering with Mitsuba (not the NeRF renderer): colour, coverage, exact depth, mask.
 
 Colour is the pixel-footprint average (box filter) rendered through a ``batch``
 sensor, many views per launch so that kernels stay wide. Point lights summed by
@@ -7,8 +7,11 @@ noise-free; a stratified sampler then converges the footprint integral quickly (
 tests require >= 50 dB against a render with 4x the samples).
 
 Depth and mask do not come from a jittered AOV (which averages misses into silhouette
-pixels): every pixel-centre ray of :meth:`Cameras.rays` is intersected with the scene,
-so depth is the exact distance along that ray and the mask says whether it hits.
+pixels): every pixel-centre ray is intersected with the scene, so depth is the exact distance along that
+ray and the mask says whether it hits.
+
+Cameras enter as arrays (Mitsuba ``to_world`` frames, the field of view, the film size,
+pixel-centre rays), so this stage knows nothing of the data stage's camera objects.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..data.cameras import Cameras
+from .._variant import ensure_variant
+from .integrator import all_lights_integrator
 
 
 @dataclass
@@ -36,20 +40,6 @@ class RenderSettings:
     """Views are split into launches of at most this many samples (bounds memory)."""
 
 
-@dataclass
-class Views:
-    """Rendered ground truth of one set of cameras, all ``[n, H, W, ...]``."""
-
-    rgb: np.ndarray
-    """Linear RGB over a black background (premultiplied by coverage), float32."""
-    alpha: np.ndarray
-    """Coverage of each pixel's footprint in [0, 1], float32."""
-    depth: np.ndarray
-    """Distance along the pixel-centre ray to the first hit; ``inf`` on a miss."""
-    mask: np.ndarray
-    """Whether the pixel-centre ray hits the scene (bool)."""
-
-
 def _sensor_dict(frames: np.ndarray, fov: float, film_w: int, film_h: int, settings: RenderSettings, spp: int):
     import mitsuba as mi
 
@@ -62,29 +52,31 @@ def _sensor_dict(frames: np.ndarray, fov: float, film_w: int, film_h: int, setti
             "sampler": {"type": settings.sampler, "sample_count": spp}}
 
 
-def render_color(scene, cams: Cameras, settings: RenderSettings | None = None,
-                 spp: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Colour and coverage of every view: ``rgb [n, H, W, 3]``, ``alpha [n, H, W]``."""
+def render_color(scene, frames: np.ndarray, fov: float, height: int, width: int,
+                 settings: RenderSettings | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Colour and coverage of every view: ``rgb [n, H, W, 3]``, ``alpha [n, H, W]``.
+
+    ``frames [n, 4, 4]``: Mitsuba ``to_world`` matrices; ``fov`` in degrees along the
+    film's x axis; a 2D view (``width == 1``) is an ``H x 1`` film whose column ``i`` is
+    pixel row ``i``."""
     import mitsuba as mi
 
-    from .integrator import all_lights_integrator
-
+    ensure_variant()
     settings = settings or RenderSettings()
-    spp = spp or settings.spp
+    spp = settings.spp
     integrator = all_lights_integrator() if settings.integrator == "all_lights" else scene.integrator()
-    frames = cams.mitsuba_frames()
-    # Mitsuba film (width x height) per view: 2D -> H x 1, 3D -> W x H
-    fw, fh = (cams.height, 1) if cams.dim == 2 else (cams.width, cams.height)
+    flat = width == 1                       # 2D: film H x 1
+    fw, fh = (height, 1) if flat else (width, height)
     per_view = fw * fh * spp
     chunk = max(1, settings.max_samples_per_launch // per_view)
-    out = np.empty((len(cams), fh, fw, 4), np.float32)
-    for start in range(0, len(cams), chunk):
+    out = np.empty((len(frames), fh, fw, 4), np.float32)
+    for start in range(0, len(frames), chunk):
         sub = frames[start:start + chunk]
-        sensor = mi.load_dict(_sensor_dict(sub, cams.fov, fw * len(sub), fh, settings, spp))
+        sensor = mi.load_dict(_sensor_dict(sub, fov, fw * len(sub), fh, settings, spp))
         img = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, spp=spp,
                                    seed=settings.seed + start))
         out[start:start + len(sub)] = img.reshape(fh, len(sub), fw, 4).transpose(1, 0, 2, 3)
-    if cams.dim == 2:   # film column i is pixel row i
+    if flat:   # film column i is pixel row i
         out = out.transpose(0, 2, 1, 3)
     return np.ascontiguousarray(out[..., :3]), np.ascontiguousarray(out[..., 3])
 
@@ -94,6 +86,7 @@ def ray_depth(scene, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     import drjit as dr
     import mitsuba as mi
 
+    ensure_variant()
     if origins.shape[-1] == 2:   # 2D rays live in the z = 0 plane
         origins = np.c_[origins, np.zeros(len(origins))]
         dirs = np.c_[dirs, np.zeros(len(dirs))]
@@ -111,16 +104,9 @@ def ray_depth(scene, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     return out
 
 
-def exact_depth(scene, cams: Cameras) -> tuple[np.ndarray, np.ndarray]:
-    """Depth and mask of every pixel-centre ray, each ``[n, H, W]``."""
-    o, d = cams.rays()
-    shape = o.shape[:-1]
-    depth = ray_depth(scene, o.reshape(-1, cams.dim), d.reshape(-1, cams.dim)).reshape(shape)
+def exact_depth(scene, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Depth and mask of pixel-centre rays ``[..., D]`` (any leading shape), each ``[...]``."""
+    shape = origins.shape[:-1]
+    D = origins.shape[-1]
+    depth = ray_depth(scene, origins.reshape(-1, D), dirs.reshape(-1, D)).reshape(shape)
     return depth.astype(np.float32), np.isfinite(depth)
-
-
-def render_views(scene, cams: Cameras, settings: RenderSettings | None = None) -> Views:
-    """Colour, coverage, exact depth and mask of every view of ``cams``."""
-    rgb, alpha = render_color(scene, cams, settings)
-    depth, mask = exact_depth(scene, cams)
-    return Views(rgb, alpha, depth, mask)

@@ -1,0 +1,113 @@
+"""Command-line values checked where they are typed, and the flags that override a recipe.
+
+Numbers go through :func:`number`, so ``--batch 0``, ``--lr -0.01`` or ``--time-budget nan``
+end in one line before anything runs. Recipe flags default to ``None``: the value then
+comes from the recipe (:mod:`mitnerf.train.recipes`); no default is written twice.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from ..errors import ConfigError, check_number
+from ..train.recipes import get_recipe, recipe_for
+
+
+def number(integer: bool = False, lo=None, hi=None, strict_lo: bool = False):
+    """An argparse type: a finite number (a whole one if ``integer``) within the bounds."""
+    def parse(text: str):
+        try:
+            value = float(text)
+            if integer:
+                if not value.is_integer():
+                    raise ValueError
+                value = int(value)
+        except (ValueError, OverflowError):
+            raise argparse.ArgumentTypeError(f"expected {'a whole number' if integer else 'a number'}, "
+                                             f"got {text!r}") from None
+        try:
+            check_number("value", value, lo, hi, integer, strict_lo, flag="it")
+        except ConfigError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        return value
+    parse.__name__ = "whole number" if integer else "number"
+    return parse
+
+
+def background(text: str) -> tuple:
+    named = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
+    if text in named:
+        return named[text]
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(0.0 <= v <= 1.0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected black, white or r,g,b with values in [0, 1], got {text!r}")
+    return values
+
+
+def key_value(text: str) -> tuple:
+    """``key=value``; the value is a JSON literal when it parses, else a string."""
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(f"expected key=value, got {text!r}")
+    k, v = text.split("=", 1)
+    try:
+        return k.strip(), json.loads(v)
+    except json.JSONDecodeError:
+        return k.strip(), v
+
+
+# flag, recipe setting, argparse keyword arguments, help
+OVERRIDES = [
+    ("--iters", "iters", dict(type=number(True, 1, 10 ** 9)), "optimisation steps (an upper bound with a time budget)"),
+    ("--time-budget", "time_budget", dict(type=number(False, 0, 10 ** 7, strict_lo=True)), "seconds of training"),
+    ("--batch", "batch_rays", dict(type=number(True, 1, 1 << 22)), "rays per step"),
+    ("--lr", "lr", dict(type=number(False, 0, 10, strict_lo=True)), "peak learning rate"),
+    ("--lr-final", "lr_final", dict(type=number(False, 0, 10, strict_lo=True)), "final learning rate"),
+    ("--seed", "seed", dict(type=number(True, 0, 2 ** 32 - 1)), "seed of weights, batches and jitter"),
+    ("--val-every", "val_every", dict(type=number(True, 0, 10 ** 9)), "validate every N steps (0: at the end)"),
+    ("--threads", "threads", dict(type=number(True, 1, 1024)), "CPU threads"),
+    ("--depth-weight", "depth_weight", dict(type=number(False, 0, 1e6)),
+     "weight of DS-NeRF's depth loss on the dataset's depth (0: off)"),
+    ("--depth-sigma", "depth_sigma", dict(type=number(False, 0, 1e6, strict_lo=True)),
+     "width of the depth loss's Gaussian (world units)"),
+    ("--samples", "n_coarse", dict(type=number(True, 1, 4096)), "coarse samples per ray"),
+    ("--fine", "n_fine", dict(type=number(True, 0, 4096)), "importance samples per ray (0: no fine pass)"),
+    ("--background", "background", dict(type=background), "black, white or r,g,b"),
+    ("--method", "method", dict(choices=["replay", "autodiff"]), "volume integral"),
+    ("--occupancy", "occupancy.enabled", dict(action=argparse.BooleanOptionalAction), "empty-space skipping"),
+    ("--width", "width", dict(type=number(True, 2, 1024)), "MLP width"),
+    ("--depth", "depth", dict(type=number(True, 1, 32)), "MLP layers"),
+    ("--pos-L", "pos_L", dict(type=number(True, 0, 24)), "positional-encoding frequencies"),
+    ("--dir-L", "dir_L", dict(type=number(True, 0, 12)), "view-direction encoding frequencies"),
+    ("--resolution", "resolution", dict(type=number(True, 2, 8193)), "grid vertices per axis"),
+    ("--view-dependence", "view_dependent", dict(action=argparse.BooleanOptionalAction), "view-dependent colour"),
+    ("--density-activation", "density_activation", dict(choices=["relu", "softplus", "trunc_exp"]), "density"),
+]
+
+
+def add_recipe_flags(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("recipe (every flag overrides one setting; unset: the recipe's value)")
+    g.add_argument("--recipe", default=None, help="a recipe by name (`mitnerf recipes`)")
+    g.add_argument("--field", default=None, help="the tuned recipe of this field family (grid, hashgrid, vanilla)")
+    for flag, key, kw, text in OVERRIDES:
+        g.add_argument(flag, dest=f"set_{key}", default=None, help=text, **kw)
+    g.add_argument("--set", dest="sets", action="append", default=[], type=key_value, metavar="KEY=VALUE",
+                   help="any other setting of the recipe (a field, render or train setting; repeatable)")
+
+
+def overrides(args) -> dict:
+    """The settings the user typed, as ``{recipe key: value}``."""
+    out = {key: getattr(args, f"set_{key}") for _, key, _, _ in OVERRIDES}
+    out.update(dict(args.sets))
+    return {k: v for k, v in out.items() if v is not None}
+
+
+def recipe_from_args(args, dim: int):
+    """The recipe the flags describe for a dataset of ``dim``, checked."""
+    if args.recipe and args.field:
+        raise ConfigError("--recipe and --field both choose the recipe; pass one of them")
+    base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dim)
+    return base.override(**overrides(args)).validate()

@@ -1,0 +1,32 @@
+"""Datasets rendered once and reused: ``cached_dataset(scene, rig)`` under ``$MITNERF_CACHE``.
+
+The entry's name is a hash of the scene, the rig and the render settings; it is filled
+atomically (:func:`mitnerf._io.cache_entry`), so processes that ask for the same dataset
+at once render it privately and the first to finish provides it to all.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+from .._io import cache_entry, digest
+from ..scenes.gt_render import RenderSettings
+from ..scenes.registry import get_scene
+from .dataset import Dataset
+from .formats import WRITERS, load_dataset
+from .generate import make_dataset
+from .rig import RigConfig
+
+
+def cached_dataset(scene: str, rig: RigConfig, render: RenderSettings | None = None) -> Dataset:
+    """The dataset of ``scene`` seen by ``rig``, rendered on first use."""
+    render = render or RenderSettings()
+    key = digest(scene, json.dumps(dataclasses.asdict(rig), sort_keys=True),
+                 json.dumps(dataclasses.asdict(render), sort_keys=True))
+
+    def build(tmp):
+        ds = make_dataset(get_scene(scene), rig, render, progress=False)
+        WRITERS["nerf2d" if ds.dim == 2 else "blender"](ds, tmp)
+
+    return load_dataset(cache_entry(f"datasets/{scene}-{key}", build))

@@ -1,0 +1,104 @@
+"""Plumbing every experiment shares: one run -> one row, rows -> CSV, tables over seeds, the report.
+
+Every experiment module has a ``Config`` dataclass, ``quick(seed)`` (a small version that
+runs in about a minute) and ``run(cfg, out) -> list[dict]`` (rows; it also writes CSV,
+figures and ``report.md`` into ``out``). A row is a :class:`~mitnerf.train.evaluate.RunRecord`
+row plus the experiment's labels; :func:`summarise` turns the rows of several seeds into
+mean and spread.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .._io import atomic_write_text
+from ..data.dataset import Dataset
+from ..train.fit import fit_and_evaluate
+from ..train.recipes import Recipe
+
+
+def train_row(dataset: Dataset, recipe: Recipe, labels: dict, backend: str = "drjit",
+              geometry_metrics: bool = True) -> tuple[dict, object, object]:
+    """Fit and evaluate one configuration; -> (row, run, record). Never raises for a failed run."""
+    run, rec = fit_and_evaluate(dataset, recipe, backend, geometry_metrics=geometry_metrics)
+    return {**labels, **rec.row()}, run, rec
+
+
+def write_csv(path: Path, rows: list[dict]) -> Path:
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=keys)
+    w.writeheader()
+    w.writerows(rows)
+    return atomic_write_text(path, buf.getvalue())
+
+
+def read_csv(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def num(v) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def summarise(rows: list[dict], by: list[str], metrics=("psnr", "ssim")) -> list[dict]:
+    """Rows grouped by the ``by`` columns: the count, failures, and mean / std / min / max of each
+    metric over the runs that are ``ok`` (seeds)."""
+    groups: dict[tuple, list] = {}
+    for r in rows:
+        groups.setdefault(tuple(r[k] for k in by), []).append(r)
+    out = []
+    for key, rs in groups.items():
+        ok = [r for r in rs if r.get("status") == "ok"]
+        row = {**dict(zip(by, key)), "runs": len(rs), "failed": len(rs) - len(ok)}
+        for m in metrics:
+            vals = np.array([num(r.get(m)) for r in ok])
+            vals = vals[np.isfinite(vals)]
+            row[m] = float(vals.mean()) if vals.size else math.nan
+            row[f"{m}_std"] = float(vals.std()) if vals.size > 1 else 0.0 if vals.size else math.nan
+            row[f"{m}_min"], row[f"{m}_max"] = (float(vals.min()), float(vals.max())) if vals.size else (math.nan,) * 2
+        out.append(row)
+    return out
+
+
+def fmt_value(v, spec: str = ".2f") -> str:
+    f = num(v)
+    return str(v) if not math.isfinite(f) and not isinstance(v, float) else "-" if not math.isfinite(f) \
+        else format(f, spec)
+
+
+def markdown_table(rows: list[dict], columns: list[str] | None = None, fmt: dict | None = None,
+                   headers: dict | None = None) -> str:
+    """A GitHub markdown table; ``fmt`` maps a column to a format spec, ``headers`` renames columns."""
+    if not rows:
+        return "(no rows)\n"
+    columns = columns or list(rows[0])
+    fmt, headers = fmt or {}, headers or {}
+    cell = lambda r, c: fmt_value(r.get(c, ""), fmt[c]) if c in fmt else str(r.get(c, ""))
+    lines = ["| " + " | ".join(headers.get(c, c) for c in columns) + " |", "|" + "|".join("---" for _ in columns) + "|"]
+    lines += ["| " + " | ".join(cell(r, c) for c in columns) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def mean_std(row: dict, metric: str, spec: str = ".2f") -> str:
+    """``mean ± std`` of a summarised row (just the mean with one run)."""
+    m, s = num(row.get(metric)), num(row.get(f"{metric}_std"))
+    if not math.isfinite(m):
+        return "failed"
+    return f"{m:{spec}}" + (f" ± {s:{spec}}" if row.get("runs", 1) - row.get("failed", 0) > 1 else "")
+
+
+def write_report(out: Path, title: str, sections: list[tuple[str, str]]) -> Path:
+    """``report.md``: a title, then (heading, markdown body) sections; figures are embedded by the
+    bodies as ``![caption](file.png)`` relative to ``out``."""
+    text = [f"# {title}\n"] + [f"## {heading}\n\n{body.strip()}\n" for heading, body in sections]
+    return atomic_write_text(out / "report.md", "\n".join(text))

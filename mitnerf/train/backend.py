@@ -1,0 +1,149 @@
+"""The backend contract: what an engine (Dr.Jit, torch) must do, and what they share.
+
+An engine implements the few things that differ (:class:`Backend`'s abstract methods):
+holding the model's parameters and its optimizer, one optimisation step, rendering one
+chunk of rays, the density at points, and converting weights and optimizer state
+to and from numpy. Everything else is written once here: the loss
+(:meth:`Backend.loss`: photometric MSE, the coarse pass, the fields' regularisers,
+DS-NeRF's depth term), the occupancy-grid updates, the chunked render loop and the
+state a checkpoint holds.
+
+Engines (:func:`mitnerf.train.engines.make_backend`): ``drjit`` (:mod:`.backend_drjit`, the
+library's own) and ``torch`` (:mod:`.backend_torch`, the reference twin; the ``torch`` extra).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from ..data.dataset import RaySet
+from .config import ModelConfig, TrainConfig
+
+def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
+    """The fields of a model (``coarse``, and ``fine`` with a separate fine pass), built by
+    ``make_field(family, **args)`` of either engine."""
+    args = {**cfg.field_args, "dim": dim, "bound": bound}
+    fields = {"coarse": make_field(cfg.field, **args)}
+    if cfg.render.n_fine > 0 and cfg.render.separate_fine:
+        fields["fine"] = make_field(cfg.field, **args)
+    return fields
+
+
+def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, regularizer):
+    """The training loss from a render's outputs, written once for both engines: photometric
+    MSE of the final pass, ``coarse_weight`` x that of the coarse pass, the fields'
+    regularisers, and ``depth_weight`` x DS-NeRF's KL term. ``ops``: the engine's
+    ``mse``/``depth_kl`` (:mod:`mitnerf.train.losses` or its twin)."""
+    final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
+    loss = ops.mse(final.rgb, target)
+    if outs.get("fine") is not None and cfg.coarse_weight > 0:
+        loss = loss + cfg.coarse_weight * ops.mse(outs["coarse"].rgb, target)
+    if regularizer is not None:
+        loss = loss + regularizer
+    if cfg.depth_weight > 0:
+        t, delta = outs["samples"]
+        loss = loss + cfg.depth_weight * ops.depth_kl(final.weights, t, delta, depth, hit, n_final, cfg.depth_sigma)
+    return loss
+
+
+class Backend(ABC):
+    """One model being trained by one engine."""
+
+    name: str
+    chunk = 8192
+    """Rays per render launch."""
+
+    def __init__(self, model_cfg: ModelConfig, train_cfg: TrainConfig, dim: int, bound: float, near: float,
+                 far: float):
+        self.model_cfg, self.cfg = model_cfg, train_cfg
+        self.dim, self.bound, self.near, self.far = dim, float(bound), float(near), float(far)
+        self.occupancy = None
+        self.n_pixels = 0
+
+    # ------------------------------------------------------------------ engine-specific
+    @abstractmethod
+    def set_data(self, rays: RaySet) -> None:
+        """Hold the training rays (batches are drawn from them inside :meth:`step`)."""
+
+    @abstractmethod
+    def step(self, index: int, seed: int, lr: float):
+        """Optimisation step ``index`` with batch/jitter ``seed``; returns a handle for :meth:`read`."""
+
+    @abstractmethod
+    def read(self, handle) -> tuple[float, str | None]:
+        """The loss of a step, and the name of a quantity that became NaN or infinite (or None)."""
+
+    @abstractmethod
+    def render_chunk(self, origins: np.ndarray, directions: np.ndarray) -> dict:
+        """Rays ``[n, D]`` (no jitter) -> numpy ``rgb [n, 3]``, ``depth [n]``, ``opacity [n]``."""
+
+    @abstractmethod
+    def density(self, x: np.ndarray) -> np.ndarray:
+        """Density of the final field at points ``[m, D]`` -> ``[m]``."""
+
+    @abstractmethod
+    def model_weights(self) -> dict[str, np.ndarray]:
+        """The model's parameters, canonical names (``coarse.trunk.0.weight``, ...)."""
+
+    @abstractmethod
+    def load_model_weights(self, arrays: dict[str, np.ndarray]) -> None:
+        """Replace the model's parameters (optimizer state is kept)."""
+
+    @abstractmethod
+    def optimizer_state(self) -> dict[str, np.ndarray]:
+        """Adam's moments and step counts (engine-specific names; for resuming in the same engine)."""
+
+    @abstractmethod
+    def load_optimizer_state(self, arrays: dict[str, np.ndarray]) -> None:
+        """Restore what :meth:`optimizer_state` returned."""
+
+    @abstractmethod
+    def _density_fn(self):
+        """``points -> density`` in the engine's array type, without gradients (occupancy updates)."""
+
+    # ------------------------------------------------------------------ shared
+    @property
+    def n_final(self) -> int:
+        """Samples per ray of the final pass."""
+        r = self.model_cfg.render
+        return r.n_coarse + max(r.n_fine, 0)
+
+    def loss(self, ops, outs: dict, target, depth, hit, regularizer):
+        """The training loss of a render's outputs (:func:`training_loss`)."""
+        return training_loss(self.cfg, self.n_final, ops, outs, target, depth, hit, regularizer)
+
+    def update_occupancy(self, index: int, seed: int) -> None:
+        occ = self.occupancy
+        if occ is not None and index % occ.cfg.update_every == 0:
+            occ.update(self._density_fn(), index, seed)
+
+    def render(self, origins: np.ndarray, directions: np.ndarray, chunk: int | None = None) -> dict:
+        """Render rays ``[P, D]`` in chunks -> numpy ``rgb [P, 3]``, ``depth [P]``, ``opacity [P]``."""
+        chunk = chunk or self.chunk
+        origins, directions = np.asarray(origins, np.float32), np.asarray(directions, np.float32)
+        parts = [self.render_chunk(origins[s:s + chunk], directions[s:s + chunk])
+                 for s in range(0, len(origins), chunk)]
+        if not parts:
+            return {"rgb": np.zeros((0, 3), np.float32), "depth": np.zeros(0, np.float32),
+                    "opacity": np.zeros(0, np.float32)}
+        return {k: np.concatenate([p[k] for p in parts]) for k in ("rgb", "depth", "opacity")}
+
+    def get_weights(self) -> dict[str, np.ndarray]:
+        """Model parameters and the occupancy grid's state (what a checkpoint stores), as copies
+        (numpy views of Dr.Jit arrays may be reused by the next step)."""
+        out = self.model_weights()
+        if self.occupancy is not None:
+            out.update({f"occupancy.{k}": v for k, v in self.occupancy.state().items()})
+        return {k: np.array(v, copy=True) for k, v in out.items()}
+
+    def set_weights(self, arrays: dict[str, np.ndarray]) -> None:
+        arrays = dict(arrays)
+        occ = {k.split(".", 1)[1]: arrays.pop(k) for k in list(arrays) if k.startswith("occupancy.")}
+        if occ and self.occupancy is not None:
+            self.occupancy.load(occ)
+        self.load_model_weights(arrays)
+
+    def n_params(self) -> int:
+        return int(sum(v.size for v in self.model_weights().values()))

@@ -1,0 +1,153 @@
+"""Fitting a field to a dataset: ``fit(dataset, recipe, backend) -> Run``.
+
+The training split is turned into rays, the backend of the chosen engine is built from
+the recipe, and :func:`~mitnerf.train.loop.run_loop` trains it. Every ``val_every``
+steps a few validation views are rendered: their PSNR is recorded, a field that has
+*collapsed* (:func:`~mitnerf.train.evaluate.classify`) stops the run, and the best
+validation's weights are kept; with ``keep_best`` the run ends with them (and says so
+in :attr:`Run.notes`). A NaN stops the run with the weights of the last good
+validation restored; Ctrl-C or SIGTERM stops it after a whole step. Both exceptions
+carry the :class:`Run`, so the caller can write a checkpoint (:mod:`.checkpoint`) and,
+after an interruption, resume it with :func:`fit` and ``resume=`` the saved state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..data.dataset import Dataset
+from ..errors import ConfigError, DataError
+from ..fields import CONDITIONED
+from .backend import Backend
+from .engines import make_backend
+from .evaluate import RunRecord, classify, evaluate, render_split
+from .loop import Interrupted, LoopState, TrainingFailed, run_loop
+from .metrics import psnr
+from .recipes import Recipe
+
+
+@dataclass
+class Run:
+    """A model being trained, and how it got there."""
+
+    backend: Backend
+    recipe: Recipe
+    dataset_meta: dict
+    """The dataset's provenance (``path`` where it was read from, when known)."""
+    state: LoopState = field(default_factory=LoopState)
+    best: dict = field(default_factory=dict)
+    """``step`` and ``val_psnr`` of the best validation so far (empty before the first)."""
+    notes: list = field(default_factory=list)
+    """Things the user should know (the best checkpoint was kept, ...)."""
+    snapshot: dict | None = field(default=None, repr=False)
+    """Weights of the best validation (numpy), kept in memory."""
+
+    @property
+    def bound(self) -> float:
+        return self.backend.bound
+
+    def record(self, dataset: Dataset, split: str = "test", **kw) -> RunRecord:
+        """Evaluate on ``split`` (see :func:`~mitnerf.train.evaluate.evaluate`)."""
+        rec = RunRecord(train_time=self.state.train_time, steps=self.state.step, recipe=self.recipe.name)
+        return evaluate(self.backend, dataset, split, record=rec, **kw)
+
+
+def check_dataset(dataset: Dataset, need_test: bool = True) -> None:
+    """Refuse, before training, a dataset that training or evaluation would fail on."""
+    if "train" not in dataset.splits or len(dataset["train"]) == 0:
+        raise DataError("the dataset has no training views; add views to its train split")
+    if need_test and ("test" not in dataset.splits or len(dataset["test"]) == 0):
+        raise DataError("the dataset has no test views, so the fit could not be evaluated; "
+                        "add a test split (e.g. `mitnerf dataset --test 20`)")
+
+
+def validation_views(dataset: Dataset, n: int):
+    val = dataset.splits.get("val")
+    if val is None or len(val) == 0:
+        return None
+    return val.subset(np.linspace(0, len(val) - 1, min(n, len(val))).astype(int))
+
+
+def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dict | None = None,
+        progress: bool | None = None) -> Run:
+    """Train ``recipe`` on ``dataset['train']`` with engine ``backend``; see the module docstring.
+
+    ``resume``: what :func:`~mitnerf.train.checkpoint.load_state` returned for an
+    interrupted run of the same recipe, which then continues where it stopped."""
+    recipe.validate()
+    if recipe.model.field in CONDITIONED:
+        raise ConfigError(f"a {recipe.model.field} field renders from input views and trains across scenes; "
+                          "run `mitnerf experiment pixelnerf`, or pick another --field")
+    if recipe.dim != dataset.dim:
+        raise DataError(f"recipe {recipe.name} is for {recipe.dim}D datasets but the dataset is {dataset.dim}D; "
+                        f"pick a {dataset.dim}D recipe (`mitnerf recipes`)")
+    check_dataset(dataset, need_test=False)
+    cfg = recipe.train
+    if progress is not None:
+        cfg.progress = progress
+    recipe.model.render.background = tuple(recipe.model.render.background)
+    be = make_backend(backend, recipe.model, cfg, dataset.dim, dataset.bound, dataset.near, dataset.far)
+    be.set_data(dataset["train"].rays(recipe.model.render.background))
+    run = Run(be, recipe, dict(dataset.meta))
+    if resume is not None:
+        be.set_weights(resume["weights"])
+        be.load_optimizer_state(resume["optimizer"])
+        run.state, run.best = resume["state"], dict(resume.get("best", {}))
+        run.snapshot = resume.get("best_weights")
+    val = validation_views(dataset, cfg.val_views)
+    bg = tuple(recipe.model.render.background)
+
+    def validate(step: int) -> None:
+        r, _ = render_split(be, val)
+        status, reason = classify(r["rgb"], r["opacity"], val, bg)
+        if status != "ok" and step >= 2 * cfg.warmup:
+            raise TrainingFailed(f"the field {status} by step {step} ({reason}); use a softplus density "
+                                 "(--set density_activation=softplus), a lower --lr or a longer warm-up",
+                                 status, step)
+        value = psnr(r["rgb"], val.target(bg))
+        h = run.state.history
+        h["val_step"].append(step)
+        h["val_time"].append(run.state.train_time)
+        h["val_psnr"].append(value)
+        if np.isfinite(value) and value > run.best.get("val_psnr", -np.inf):
+            run.best = {"step": step, "val_psnr": value}
+            run.snapshot = be.get_weights()
+
+    try:
+        run_loop(be.step, be.read, cfg, run.state, validate if val is not None else None,
+                 desc=f"fit {recipe.name} ({be.name})")
+    except TrainingFailed as exc:
+        if run.snapshot is not None:
+            be.set_weights(run.snapshot)
+            exc.args = (f"{exc.args[0]}; kept the weights of step {run.best['step']} "
+                        f"(validation {run.best['val_psnr']:.2f} dB)",)
+        exc.run = run
+        raise
+    except Interrupted as exc:
+        exc.run = run
+        raise
+    if val is not None and run.state.history["val_step"][-1:] != [run.state.step]:
+        validate(run.state.step)
+    last = run.state.history["val_psnr"][-1] if val is not None else None
+    if cfg.keep_best and run.best and last is not None and run.best["step"] != run.state.step \
+            and run.best["val_psnr"] > last:
+        be.set_weights(run.snapshot)
+        run.notes.append(f"kept the checkpoint of step {run.best['step']} (validation {run.best['val_psnr']:.2f} dB; "
+                         f"the last step, {run.state.step}, had {last:.2f} dB)")
+    return run
+
+
+def fit_and_evaluate(dataset: Dataset, recipe: Recipe, backend: str = "drjit", split: str = "test",
+                     geometry_metrics: bool = True) -> tuple[Run, RunRecord]:
+    """Fit and evaluate, never raising for a run that fails: a NaN or a collapse comes back
+    as the record's status (with the reason), evaluated on the weights that were kept."""
+    try:
+        run = fit(dataset, recipe, backend, progress=False)
+        return run, run.record(dataset, split, geometry_metrics=geometry_metrics)
+    except TrainingFailed as exc:
+        run = exc.run
+        rec = RunRecord(status=exc.status, reason=str(exc), train_time=run.state.train_time, steps=run.state.step,
+                        recipe=recipe.name)
+        return run, evaluate(run.backend, dataset, split, geometry_metrics=geometry_metrics, record=rec)

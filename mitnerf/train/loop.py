@@ -1,0 +1,138 @@
+"""The one training loop: clock, learning-rate schedule, NaN guard, validation, Ctrl-C.
+
+:func:`run_loop` drives any step function (a field fitted to one scene, pixelNeRF across
+scenes). Losses are read back every few steps (a read forces the asynchronous Dr.Jit
+queue to finish, so the clock is honest at that point); the learning rate follows
+:func:`~mitnerf.train.config.lr_schedule` over the steps, or over the clock when a time
+budget is set, whichever is further along. Validation time is not training time.
+
+* A NaN or infinite loss, gradient or parameter stops the loop with
+  :class:`TrainingFailed` naming the step, the quantity and a fix.
+* SIGINT (Ctrl-C) or SIGTERM lets the step in flight finish, then raises
+  :class:`Interrupted`; the state is then consistent and can be saved and resumed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from ..rng import step_seed
+from .config import TrainConfig
+
+
+class TrainingFailed(RuntimeError):
+    """The run diverged (``status='nan'``) or collapsed; the message says what to change."""
+
+    def __init__(self, message: str, status: str = "nan", step: int | None = None):
+        super().__init__(message)
+        self.status, self.step = status, step
+
+
+class Interrupted(Exception):
+    """SIGINT or SIGTERM arrived; the loop stopped after a whole step."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def new_history() -> dict:
+    return {"step": [], "time": [], "loss": [], "val_step": [], "val_time": [], "val_psnr": []}
+
+
+@dataclass
+class LoopState:
+    """How far a run has come (everything a resumed run needs besides the weights)."""
+
+    step: int = 0
+    """Steps taken."""
+    train_time: float = 0.0
+    """Seconds of training so far (validation excluded)."""
+    history: dict = field(default_factory=new_history)
+    """Loss per read-back step and validation PSNR, with their times."""
+
+
+@contextlib.contextmanager
+def deferred_signals():
+    """Record SIGINT/SIGTERM instead of raising at once (a second Ctrl-C stops immediately);
+    yields a list that holds the first signal number received."""
+    got: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield got
+        return
+
+    def handler(signum, frame):
+        if got and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        got.append(signum)
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield got
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def run_loop(step_fn: Callable, read_fn: Callable, cfg: TrainConfig, state: LoopState,
+             validate: Callable[[int], None] | None = None, desc: str = "fit", read_every: int = 10) -> LoopState:
+    """Take steps from ``state.step`` until ``cfg.iters`` steps or ``cfg.time_budget`` seconds.
+
+    ``step_fn(index, seed, lr) -> handle`` takes one step; ``read_fn(handle) -> (loss, bad)``
+    reads its loss and names a non-finite quantity (or None). ``validate(step)`` runs every
+    ``cfg.val_every`` steps. Updates and returns ``state``."""
+    budget, h = cfg.time_budget, state.history
+    pending: list = []
+    bar = tqdm(total=budget if budget is not None else cfg.iters, desc=desc, leave=False,
+               unit="s" if budget is not None else "step", disable=not cfg.progress, mininterval=0.5,
+               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s{postfix}" if budget is not None else None)
+    t_last = time.perf_counter()
+
+    def drain():
+        nonlocal pending, t_last
+        for k, handle in pending:
+            value, bad = read_fn(handle)
+            if bad is not None or not np.isfinite(value):
+                what = bad or f"the loss ({value})"
+                raise TrainingFailed(f"{what} became NaN or infinite at step {k}; lower the learning rate "
+                                     f"(--lr, now {cfg.lr:g}) or use a softplus density "
+                                     "(--set density_activation=softplus)", "nan", k)
+            h["step"].append(k)
+            h["loss"].append(value)
+            h["time"].append(state.train_time)
+        pending = []
+        now = time.perf_counter()
+        state.train_time += now - t_last
+        t_last = now
+        bar.update((min(state.train_time, budget) if budget is not None else state.step) - bar.n)
+        if h["loss"]:
+            bar.set_postfix(step=state.step, loss=f"{h['loss'][-1]:.2e}", refresh=False)
+
+    try:
+        with deferred_signals() as signals:
+            while state.step < cfg.iters and (budget is None or state.train_time < budget):
+                k = state.step
+                progress = k / cfg.iters if budget is None else max(k / cfg.iters, state.train_time / budget)
+                pending.append((k + 1, step_fn(k, step_seed(cfg.seed, k), cfg.lr_at(progress, k))))
+                state.step = k + 1
+                slow = state.step > 1 and state.train_time / max(state.step - len(pending), 1) > 0.05
+                if state.step % read_every == 0 or state.step == cfg.iters or signals or (budget is not None and slow):
+                    drain()                                  # syncs, so the clock below is honest
+                if signals:
+                    raise Interrupted(signals[0])
+                if validate is not None and cfg.val_every and state.step % cfg.val_every == 0:
+                    drain()
+                    validate(state.step)
+                    t_last = time.perf_counter()              # validation is not training time
+            drain()
+    finally:
+        bar.close()
+    return state

@@ -1,0 +1,148 @@
+"""Recipes: THE place where hyperparameters are written.
+
+A recipe is a named, tuned training run for one field family in one dimension: the
+field's settings, how rays are sampled and integrated, and how long and how fast to
+optimise. ``mitnerf fit --data DIR`` trains :func:`default_recipe` of the dataset's
+dimension, ``--field F`` the family's recipe, ``--recipe NAME`` any recipe; every other
+flag overrides one setting (:meth:`Recipe.override`). The experiments, the sweep and
+``fit --auto`` start from these recipes too. ``mitnerf recipes`` lists them beside the
+figures measured by the benchmarks (``results.json``).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from dataclasses import dataclass
+
+from ..errors import ConfigError
+from ..render.occupancy import OccupancyConfig
+from ..render.pipeline import RenderConfig
+from .config import ModelConfig, TrainConfig
+
+
+@dataclass
+class Recipe:
+    """A named model + training configuration."""
+
+    name: str
+    """Unique name, ``<family>-<dim>d`` for the tuned recipe of a family."""
+    dim: int
+    """Dimension of the datasets it is tuned for (2 or 3)."""
+    model: ModelConfig
+    """Field family and settings, samples, fine pass, occupancy grid."""
+    train: TrainConfig
+    """Budget, batch, learning-rate schedule, losses."""
+    about: str = ""
+    """One line: what it is for."""
+
+    def copy(self) -> "Recipe":
+        return copy.deepcopy(self)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "dim": self.dim, "model": self.model.to_dict(),
+                "train": dataclasses.asdict(self.train), "about": self.about}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Recipe":
+        train = {k: v for k, v in d["train"].items() if k in TrainConfig.__dataclass_fields__}
+        return cls(d["name"], int(d["dim"]), ModelConfig.from_dict(d["model"]), TrainConfig(**train),
+                   d.get("about", ""))
+
+    def override(self, **settings) -> "Recipe":
+        """A copy with some settings replaced. Keys are a :class:`TrainConfig` field
+        (``lr``), a :class:`RenderConfig` field (``n_coarse``), ``occupancy.<field>``, or a
+        setting of the field family (``width``); ``None`` values are ignored."""
+        out = self.copy()
+        train_keys = set(TrainConfig.__dataclass_fields__)
+        render_keys = set(RenderConfig.__dataclass_fields__) - {"occupancy"}
+        for key, value in settings.items():
+            if value is None:
+                continue
+            if key in train_keys:
+                setattr(out.train, key, value)
+            elif key in render_keys:
+                setattr(out.model.render, key, tuple(value) if key == "background" else value)
+            elif key.startswith("occupancy."):
+                sub = key.split(".", 1)[1]
+                if sub not in OccupancyConfig.__dataclass_fields__:
+                    raise ConfigError(f"the occupancy grid has no setting {sub!r}")
+                setattr(out.model.render.occupancy, sub, value)
+            else:
+                out.model.field_args[key] = value
+        if out.essence() != self.essence() and not self.name.endswith("+"):
+            out.name = self.name + "+"          # a modified recipe says so
+        return out
+
+    def essence(self) -> dict:
+        """The settings that change what is trained (not progress bars or thread counts)."""
+        d = self.to_dict()
+        for key in ("progress", "threads"):
+            d["train"].pop(key)
+        return {k: v for k, v in d.items() if k not in ("name", "about")}
+
+    def validate(self) -> "Recipe":
+        self.model.validate(self.dim)
+        self.train.validate()
+        return self
+
+    def summary(self) -> str:
+        args = ", ".join(f"{k}={v}" for k, v in self.model.field_args.items())
+        r, t = self.model.render, self.train
+        budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
+        occ = ", occupancy grid" if r.occupancy.enabled else ""
+        fine = f" + {r.n_fine} fine" if r.n_fine else ""
+        return (f"{self.name}: {self.model.field} ({args}); {r.n_coarse}{fine} samples{occ}; "
+                f"{budget}, batch {t.batch_rays}, lr {t.lr:g} -> {t.lr_final:g}")
+
+
+def _r(name, dim, field, args, render, train, about) -> Recipe:
+    return Recipe(name, dim, ModelConfig(field, args, RenderConfig(**render)), TrainConfig(**train), about)
+
+
+_BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock decides, not the step count
+RECIPES: dict[str, Recipe] = {r.name: r for r in [
+    _r("grid-2d", 2, "grid", dict(resolution=513, initial_resolution=129, upsample_at=(150, 400), tv_weight=1e-4),
+       dict(n_coarse=128), dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, **_BUDGET),
+       "dense 2D grid, coarse to fine 129 -> 513, 10 s: the default for 2D datasets"),
+    _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4), dict(n_coarse=64),
+       dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=1024),
+       "NeRF MLP 4 x 64, L = 8, 3000 steps"),
+    _r("hashgrid-2d", 2, "hashgrid", dict(n_levels=8, log2_hashmap_size=14, hidden=16, geo_features=7),
+       dict(n_coarse=48, occupancy=dict(enabled=True, resolution=128, warmup=32)),
+       dict(time_budget=10.0, lr=0.02, lr_final=0.002, batch_rays=1024, **_BUDGET),
+       "multi-resolution hash grid + tiny MLPs, occupancy grid, 10 s"),
+    _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-4),
+       dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
+       dict(time_budget=60.0, lr=0.05, lr_final=0.005, batch_rays=2048, **_BUDGET),
+       "dense voxel grid, coarse to fine 33 -> 129, occupancy grid, 60 s: the default for 3D datasets"),
+    _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4), dict(n_coarse=64, n_fine=32),
+       dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=2048),
+       "NeRF MLP 4 x 64, L = 10, hierarchical 64 + 32, 3000 steps"),
+    _r("hashgrid-3d", 3, "hashgrid", dict(n_levels=12, log2_hashmap_size=16, base_resolution=16, max_resolution=512),
+       dict(n_coarse=48, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
+       dict(time_budget=60.0, lr=0.01, lr_final=0.001, batch_rays=2048, **_BUDGET),
+       "hash grid 12 levels, occupancy grid, 60 s"),
+    _r("pixelnerf-2d", 2, "pixelnerf", {}, dict(n_coarse=32),
+       dict(iters=8000, time_budget=150.0, lr=2e-3, lr_final=2e-4, batch_rays=32, val_every=0),
+       "2D pixelNeRF trained across scenes (`mitnerf experiment pixelnerf`): 32 rays x 32 samples per step"),
+]}
+DEFAULT = {2: "grid-2d", 3: "grid-3d"}
+
+
+def get_recipe(name: str) -> Recipe:
+    """A fresh copy of the recipe ``name``."""
+    if name not in RECIPES:
+        raise ConfigError(f"no recipe {name!r}; choose one of {', '.join(RECIPES)} (`mitnerf recipes` lists them)")
+    return RECIPES[name].copy()
+
+
+def recipe_for(field: str | None, dim: int) -> Recipe:
+    """The tuned recipe of ``field`` (the default one when None) for datasets of ``dim``."""
+    if field is None:
+        return get_recipe(DEFAULT[dim])
+    name = f"{field}-{dim}d"
+    if name not in RECIPES:
+        fams = sorted({r.model.field for r in RECIPES.values() if r.dim == dim and r.model.field != "pixelnerf"})
+        raise ConfigError(f"no {dim}D recipe for field {field!r}; choose --field {' or '.join(fams)}")
+    return get_recipe(name)
