@@ -27,7 +27,8 @@ def test_a_short_run_lowers_the_loss_threefold(bunny_small, backend):
 
 OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "fine": dict(n_fine=16),
            "occupancy": {"occupancy.enabled": True, "occupancy.warmup": 4, "occupancy.update_every": 4,
-                         "occupancy.resolution": 32}}
+                         "occupancy.resolution": 32},
+           "regularisers": dict(distortion_weight=0.01, opacity_weight=0.01, view_dependent=True)}
 
 
 @pytest.mark.parametrize("option", OPTIONS)
@@ -39,6 +40,8 @@ def test_engines_agree_step_by_step(bunny_small, family, option):
     recipe = small(f"{family}-2d", **OPTIONS[option])
     if family == "grid":
         recipe.model.field_args.update(upsample_at=(8,))       # the coarse-to-fine resize inside the compared steps
+        if option == "regularisers":
+            recipe.model.field_args["sh_degree"] = 2
     ds = bunny_small
     bes = [make_backend(b, recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far) for b in ("drjit", "torch")]
     for be in bes:

@@ -73,6 +73,9 @@ OVERRIDES = [
      "weight of DS-NeRF's depth loss on the dataset's depth (0: off)"),
     ("--depth-sigma", "depth_sigma", dict(type=number(False, 0, 1e6, strict_lo=True)),
      "width of the depth loss's Gaussian (world units)"),
+    ("--distortion-weight", "distortion_weight", dict(type=number(False, 0, 1e6)),
+     "weight of mip-NeRF 360's distortion loss (0: off)"),
+    ("--opacity-weight", "opacity_weight", dict(type=number(False, 0, 1e6)), "weight of the opacity entropy (0: off)"),
     ("--samples", "n_coarse", dict(type=number(True, 1, 4096)), "coarse samples per ray"),
     ("--fine", "n_fine", dict(type=number(True, 0, 4096)), "importance samples per ray (0: no fine pass)"),
     ("--background", "background", dict(type=background), "black, white or r,g,b"),
@@ -84,6 +87,7 @@ OVERRIDES = [
     ("--dir-L", "dir_L", dict(type=number(True, 0, 12)), "view-direction encoding frequencies"),
     ("--resolution", "resolution", dict(type=number(True, 2, 8193)), "grid vertices per axis"),
     ("--view-dependence", "view_dependent", dict(action=argparse.BooleanOptionalAction), "view-dependent colour"),
+    ("--sh-degree", "sh_degree", dict(type=number(True, 1, 2)), "grid: degree of the view-dependent harmonics"),
     ("--density-activation", "density_activation", dict(choices=["relu", "softplus", "trunc_exp"]), "density"),
 ]
 

@@ -6,9 +6,10 @@ Values live on ``R^D`` vertices spanning ``[-bound, bound]^D`` (vertex ``k`` at
 sigmoid), so a surface can be sharper than a cell, as in Plenoxels and DVGO.
 Outside the bound the density is 0.
 
-* **Low-order view dependence** (optional): each colour channel is a degree-1 expansion
-  in the view direction: 2D ``c0 + c1 cos t + c2 sin t``; 3D ``c0 + c1 x + c2 y + c3 z``
-  (real spherical harmonics of degree 1, unnormalised).
+* **View dependence** (optional, as Plenoxels): each colour channel is an expansion in
+  the view direction up to ``sh_degree`` (:func:`view_basis`): in 2D the circular
+  harmonics ``1, cos t, sin t, cos 2t, sin 2t``, in 3D the real spherical harmonics
+  ``1, x, y, z, xy, yz, 3z^2 - 1, xz, x^2 - y^2`` (unnormalised), interpolated per vertex.
 * **Coarse to fine**: training starts at ``initial_resolution`` and doubles at the
   steps in ``upsample_at`` up to ``resolution``; :meth:`resize` resamples the grids.
 * **Total variation**: :meth:`regularizer` returns ``tv_weight`` times the mean squared
@@ -45,7 +46,9 @@ class GridConfig:
     upsample_at: tuple = ()
     """Training steps at which the resolution doubles (capped at ``resolution``)."""
     view_dependent: bool = False
-    """Degree-1 view-dependent colour (2D: cos/sin of the angle; 3D: degree-1 harmonics)."""
+    """View-dependent colour: harmonics of the view direction up to ``sh_degree`` per vertex."""
+    sh_degree: int = 1
+    """Degree of the view-direction expansion (1 or 2) when ``view_dependent``."""
     density_activation: str = "softplus"
     """``softplus``, ``relu`` or ``trunc_exp``, applied after interpolation."""
     density_init: float = -1.0
@@ -67,13 +70,15 @@ class GridConfig:
             self.initial_resolution = self.resolution
         self.upsample_at = tuple(self.upsample_at)
         top = 8193 if self.dim == 2 else 513
-        check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26))
+        check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26), sh_degree=(1, 2))
         for name in ("density_scale", "tv_weight", "tv_color_weight"):
             check_number(name, getattr(self, name), 0, 1e9)
 
     @property
     def color_coeffs(self) -> int:
-        return (1 + self.dim if self.dim == 3 else 3) if self.view_dependent else 1
+        if not self.view_dependent:
+            return 1
+        return 1 + 2 * self.sh_degree if self.dim == 2 else (self.sh_degree + 1) ** 2
 
     def resolution_at(self, step: int) -> int:
         res = self.initial_resolution
@@ -118,9 +123,20 @@ def interpolate(grid: Float, channels: int, corners) -> list:
     return out
 
 
-def view_basis(d: list) -> list:
-    """Degree-1 basis of the view direction: 2D (1, cos t, sin t) = (1, dx, dy); 3D (1, dx, dy, dz)."""
-    return [Float(1.0)] + list(d)
+def view_basis(d: list, degree: int) -> list:
+    """Harmonics of a unit view direction up to ``degree`` (1 or 2); works on Dr.Jit arrays
+    and torch tensors alike. 2D ``d = (cos t, sin t)``: ``1, cos t, sin t, cos 2t, sin 2t``;
+    3D: ``1, x, y, z, xy, yz, 3z^2 - 1, xz, x^2 - y^2``."""
+    one = d[0] * 0 + 1
+    out = [one, *d]
+    if degree >= 2:
+        if len(d) == 2:
+            c, s = d
+            out += [c * c - s * s, 2 * c * s]
+        else:
+            x, y, z = d
+            out += [x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y]
+    return out
 
 
 class GridField:
@@ -172,7 +188,7 @@ class GridField:
         if K == 1:
             raw = coef
         else:
-            basis = view_basis(list(d))
+            basis = view_basis(list(d), self.cfg.sh_degree)
             raw = [sum(coef[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
         return sigma, [sigmoid(r) for r in raw]
 

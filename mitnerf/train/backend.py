@@ -34,8 +34,9 @@ def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
 def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, regularizer):
     """The training loss from a render's outputs, written once for both engines: photometric
     MSE of the final pass, ``coarse_weight`` x that of the coarse pass, the fields'
-    regularisers, and ``depth_weight`` x DS-NeRF's KL term. ``ops``: the engine's
-    ``mse``/``depth_kl`` (:mod:`mitnerf.train.losses` or its twin)."""
+    regularisers, ``depth_weight`` x DS-NeRF's KL term, ``distortion_weight`` x mip-NeRF 360's
+    distortion loss and ``opacity_weight`` x the opacity entropy. ``ops``: the engine's losses
+    (:mod:`mitnerf.train.losses` or its twin)."""
     final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
     loss = ops.mse(final.rgb, target)
     if outs.get("fine") is not None and cfg.coarse_weight > 0:
@@ -45,6 +46,11 @@ def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth
     if cfg.depth_weight > 0:
         t, delta = outs["samples"]
         loss = loss + cfg.depth_weight * ops.depth_kl(final.weights, t, delta, depth, hit, n_final, cfg.depth_sigma)
+    if cfg.distortion_weight > 0:
+        t, delta = outs["samples"]
+        loss = loss + cfg.distortion_weight * ops.distortion(final.weights, t, delta, n_final)
+    if cfg.opacity_weight > 0:
+        loss = loss + cfg.opacity_weight * ops.opacity_entropy(final.opacity)
     return loss
 
 

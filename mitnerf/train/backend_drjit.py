@@ -86,7 +86,7 @@ class DrJitBackend(Backend):
         # garbage collector at any moment, also while a frozen call records (see step())
         model, cfg, n_final = self.model, self.cfg, self.n_final
         near, far, B = self.near, self.far, cfg.batch_rays
-        use_depth = cfg.depth_weight > 0
+        use_weights = cfg.needs_weights
 
         def step(opt, data, n_pixels, seed, lr, occupied):
             # Dr.Jit 1.5.0's Adam multiplies an array-valued learning rate *in place* by each
@@ -97,7 +97,7 @@ class DrJitBackend(Backend):
             g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
             params = {k: opt[k] for k in opt.keys()}
             outs = model.render(params, g(data.origins), g(data.directions), near, far, seed, training=True,
-                                weights=use_depth, occupied=occupied)
+                                weights=use_weights, occupied=occupied)
             loss = training_loss(cfg, n_final, losses, outs, g(data.target), dr.gather(Float, data.depth, idx),
                                  dr.gather(Float, data.hit, idx), model.regularizer(params, seed))
             dr.backward(loss)

@@ -59,7 +59,7 @@ class TorchBackend(Backend):
         b = {k: v[torch.from_numpy(batch_indices(seed, self.cfg.batch_rays, self.n_pixels))]
              for k, v in self.data.items()}
         outs = self.model.render(b["origins"], b["directions"], self.near, self.far, seed, training=True,
-                                 weights=self.cfg.depth_weight > 0, occupancy=self.occupancy)
+                                 weights=self.cfg.needs_weights, occupancy=self.occupancy)
         loss = self.loss(losses, outs, b["target"], b["depth"], b["hit"], self.model.regularizer(seed))
         self.opt.zero_grad(set_to_none=True)
         loss.backward()

@@ -75,6 +75,10 @@ class TrainConfig:
     """Weight of DS-NeRF's depth loss on the dataset's depth (``mitnerf.train.losses``); 0: off."""
     depth_sigma: float = 0.05
     """Standard deviation of the depth-supervision Gaussian (world units)."""
+    distortion_weight: float = 0.0
+    """Weight of mip-NeRF 360's distortion loss (floaters, fill-in); 0: off."""
+    opacity_weight: float = 0.0
+    """Weight of the rays' opacity entropy (haze); 0: off."""
     val_every: int = 250
     """Validate every so many steps (0: only at the end); the best validation is kept."""
     val_views: int = 4
@@ -94,6 +98,11 @@ class TrainConfig:
         """Learning rate after ``progress`` in [0, 1] of the run (``step`` for the warm-up)."""
         return lr_schedule(self.lr, self.lr_final, self.warmup, progress, step)
 
+    @property
+    def needs_weights(self) -> bool:
+        """Whether the loss needs the final pass's per-sample weights."""
+        return self.depth_weight > 0 or self.distortion_weight > 0
+
     def validate(self) -> None:
         check("iters", self.iters, 1, 10 ** 9, integer=True, flag="--iters")
         if self.time_budget is not None:
@@ -108,6 +117,8 @@ class TrainConfig:
         check("coarse_weight", self.coarse_weight, 0, 1e6)
         check("depth_weight", self.depth_weight, 0, 1e6, flag="--depth-weight")
         check("depth_sigma", self.depth_sigma, 0, 1e6, strict_lo=True, flag="--depth-sigma")
+        check("distortion_weight", self.distortion_weight, 0, 1e6, flag="--distortion-weight")
+        check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
         check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
         check("val_views", self.val_views, 1, 10 ** 6, integer=True)
         check("seed", self.seed, 0, 2 ** 32 - 1, integer=True, flag="--seed")

@@ -7,7 +7,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ...fields.grid import GridConfig
+from ...fields.grid import GridConfig, view_basis
 from ...rng import hash_u32
 from .mlp import density_activation
 
@@ -93,7 +93,7 @@ class GridField(nn.Module):
         if K == 1:
             raw = coef
         else:
-            basis = torch.cat([torch.ones_like(d[:, :1]), d], dim=1)        # [n, K]
+            basis = torch.stack(view_basis(list(d.unbind(1)), self.cfg.sh_degree), 1)    # [n, K]
             raw = (coef.reshape(-1, 3, K) * basis[:, None, :]).sum(-1)
         return sigma, torch.sigmoid(raw)
 

@@ -9,6 +9,19 @@ import torch
 EPS = 1e-5
 
 
+def distortion(weights, t, delta, N: int) -> torch.Tensor:
+    """``[n_rays, N]`` inputs (sorted per ray)."""
+    m = t + 0.5 * delta
+    W = torch.cumsum(weights, 1) - weights
+    S = torch.cumsum(weights * m, 1) - weights * m
+    return (2.0 * weights * (m * W - S) + (1.0 / 3.0) * weights ** 2 * delta).sum(1).mean()
+
+
+def opacity_entropy(opacity: torch.Tensor) -> torch.Tensor:
+    a = torch.clamp(opacity, 1e-4, 1.0 - 1e-4)
+    return (-(a * torch.log(a) + (1.0 - a) * torch.log(1.0 - a))).mean()
+
+
 def mse(rgb: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     return torch.mean((rgb - target) ** 2)
 
