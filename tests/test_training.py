@@ -28,7 +28,8 @@ def test_a_short_run_lowers_the_loss_threefold(bunny_small, backend):
 OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "fine": dict(n_fine=16),
            "occupancy": {"occupancy.enabled": True, "occupancy.warmup": 4, "occupancy.update_every": 4,
                          "occupancy.resolution": 32},
-           "regularisers": dict(distortion_weight=0.01, opacity_weight=0.01, view_dependent=True)}
+           "regularisers": dict(distortion_weight=0.01, opacity_weight=0.01, view_dependent=True),
+           "pixel jitter": dict(pixel_jitter=True)}
 
 
 @pytest.mark.parametrize("option", OPTIONS)

@@ -83,6 +83,24 @@ class Cameras:
             d = np.stack([U, V, -np.ones_like(U)], -1)
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
+    def footprint(self) -> np.ndarray:
+        """Each pixel's extent as steps of its unit direction, ``[n, H, W, 2, dim]``: the ray
+        through the point ``(a, b)`` of pixel ``(v, u)`` (``a, b`` in [-1/2, 1/2], 0 at the
+        centre) has the direction ``normalize(d + a s_0 + b s_1)``. In 2D ``s_0`` steps one row
+        and ``s_1`` is zero (1D views)."""
+        f, H, W = self.focal, self.height, self.width
+        if self.dim == 2:
+            raw = np.stack([np.full(H, f), H / 2 - (np.arange(H) + 0.5)], -1)[:, None, :]
+            steps = np.stack([np.broadcast_to([0.0, -1.0], raw.shape), np.zeros(raw.shape)], -2)
+        else:
+            U, V = np.meshgrid((np.arange(W) + 0.5 - W / 2) / f, -(np.arange(H) + 0.5 - H / 2) / f)
+            raw = np.stack([U, V, -np.ones_like(U)], -1)
+            steps = np.stack([np.broadcast_to([1 / f, 0, 0], raw.shape), np.broadcast_to([0, -1 / f, 0], raw.shape)],
+                             -2)
+        steps = steps / np.linalg.norm(raw, axis=-1)[..., None, None]          # [H, W, 2, dim]
+        k = self.dim
+        return np.einsum("nij,hwsj->nhwsi", self.poses[:, :k, :k], steps)
+
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions of every pixel-centre ray, each ``[n, H, W, dim]``."""
         k = self.dim

@@ -28,6 +28,7 @@ class RaySet:
     target: np.ndarray      # [P, 3] display-space colour over the background
     depth: np.ndarray       # [P] distance along the ray, 0 where unknown or a miss
     hit: np.ndarray         # [P] 1.0 where the depth is known (the ray hits), else 0.0
+    footprint: np.ndarray   # [P, 2, D] the pixel's extent (:meth:`Cameras.footprint`)
 
     def __len__(self) -> int:
         return len(self.origins)
@@ -98,7 +99,8 @@ class Split:
         else:
             hit, depth = np.zeros(len(target), bool), np.zeros(len(target))
         return RaySet(o.reshape(-1, D).astype(np.float32), d.reshape(-1, D).astype(np.float32),
-                      target.astype(np.float32), depth.astype(np.float32), hit.astype(np.float32))
+                      target.astype(np.float32), depth.astype(np.float32), hit.astype(np.float32),
+                      self.cameras.footprint().reshape(-1, 2, D).astype(np.float32))
 
     def subset(self, index) -> "Split":
         pick = lambda a: None if a is None else a[index]

@@ -38,6 +38,12 @@ class RenderConfig:
     """``replay`` (custom operation) or ``autodiff`` (plain AD, the check)."""
     occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
     """Empty-space skipping: an occupancy grid places the coarse samples (``n_coarse``)."""
+    pixel_jitter: bool = False
+    """Train on rays spread over each pixel's footprint (the ground truth is the footprint's
+    average), not only through its centre."""
+    eval_spp: int = 1
+    """Rays averaged per pixel when evaluating (stratified over the footprint: 2D along the
+    view, 3D on a square grid); 1: the pixel centre."""
 
     def __post_init__(self):
         self.background = tuple(self.background)
@@ -47,6 +53,7 @@ class RenderConfig:
     def validate(self) -> None:
         check_number("n_coarse", self.n_coarse, 1, 4096, integer=True, flag="--samples")
         check_number("n_fine", self.n_fine, 0, 4096, integer=True, flag="--fine")
+        check_number("eval_spp", self.eval_spp, 1, 64, integer=True, flag="--eval-spp")
         if self.method not in METHODS:
             raise ConfigError(f"--method must be one of {', '.join(METHODS)}, got {self.method!r}")
         if len(self.background) != 3:

@@ -19,6 +19,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from ..data.dataset import RaySet
+from ..rng import uniform_np
 from .config import ModelConfig, TrainConfig
 
 def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
@@ -52,6 +53,23 @@ def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth
     if cfg.opacity_weight > 0:
         loss = loss + cfg.opacity_weight * ops.opacity_entropy(final.opacity)
     return loss
+
+
+def pixel_offsets(spp: int, square: bool) -> list[tuple[float, float]]:
+    """Stratified positions in a pixel (``[-1/2, 1/2]``): ``spp`` along a 1D pixel, or a
+    ``k x k`` grid (``k = round(sqrt(spp))``) in a 2D one."""
+    if not square:
+        return [((i + 0.5) / spp - 0.5, 0.0) for i in range(spp)]
+    k = max(1, round(spp ** 0.5))
+    return [((i + 0.5) / k - 0.5, (j + 0.5) / k - 0.5) for i in range(k) for j in range(k)]
+
+
+def jitter_np(seed: int, directions: np.ndarray, footprint: np.ndarray) -> np.ndarray:
+    """Training rays spread over their pixels (numpy twin of the Dr.Jit step's jitter)."""
+    idx = np.arange(len(directions), dtype=np.uint32)
+    a, b = (uniform_np(seed ^ 0x68E31DA4, idx, np.full_like(idx, k)) - 0.5 for k in (0, 1))
+    d = directions + a[:, None] * footprint[:, 0] + b[:, None] * footprint[:, 1]
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 class Backend(ABC):
@@ -125,16 +143,25 @@ class Backend(ABC):
         if occ is not None and index % occ.cfg.update_every == 0:
             occ.update(self._density_fn(), index, seed)
 
-    def render(self, origins: np.ndarray, directions: np.ndarray, chunk: int | None = None) -> dict:
-        """Render rays ``[P, D]`` in chunks -> numpy ``rgb [P, 3]``, ``depth [P]``, ``opacity [P]``."""
+    def render(self, origins: np.ndarray, directions: np.ndarray, chunk: int | None = None,
+               footprint: np.ndarray | None = None, spp: int = 1) -> dict:
+        """Render rays ``[P, D]`` in chunks -> numpy ``rgb [P, 3]``, ``depth [P]``, ``opacity [P]``;
+        with a ``footprint [P, 2, D]``, the average of ``spp`` rays spread over each pixel."""
         chunk = chunk or self.chunk
-        origins, directions = np.asarray(origins, np.float32), np.asarray(directions, np.float32)
-        parts = [self.render_chunk(origins[s:s + chunk], directions[s:s + chunk])
-                 for s in range(0, len(origins), chunk)]
-        if not parts:
-            return {"rgb": np.zeros((0, 3), np.float32), "depth": np.zeros(0, np.float32),
-                    "opacity": np.zeros(0, np.float32)}
-        return {k: np.concatenate([p[k] for p in parts]) for k in ("rgb", "depth", "opacity")}
+        origins = np.asarray(origins, np.float32)
+        dirs = [np.asarray(directions, np.float32)]
+        if footprint is not None and spp > 1:
+            dirs = [d / np.linalg.norm(d, axis=-1, keepdims=True)
+                    for d in (directions + a * footprint[:, 0] + b * footprint[:, 1] for a, b in
+                              pixel_offsets(spp, np.abs(footprint[:, 1]).max() > 0))]
+        out = {"rgb": np.zeros((len(origins), 3), np.float32), "depth": np.zeros(len(origins), np.float32),
+               "opacity": np.zeros(len(origins), np.float32)}
+        for d in dirs:
+            for s in range(0, len(origins), chunk):
+                part = self.render_chunk(origins[s:s + chunk], d[s:s + chunk].astype(np.float32))
+                for k, v in part.items():
+                    out[k][s:s + chunk] += v / len(dirs)
+        return out
 
     def get_weights(self) -> dict[str, np.ndarray]:
         """Model parameters and the occupancy grid's state (what a checkpoint stores), as copies

@@ -21,7 +21,7 @@ from ..data.dataset import RaySet
 from ..fields import make_field
 from ..render.occupancy import OccupancyGrid
 from ..render.pipeline import Model, final
-from ..rng import hash_u32
+from ..rng import hash_u32, uniform
 from . import losses
 from .backend import Backend, model_fields, training_loss
 
@@ -35,6 +35,7 @@ class DeviceRays:
     target: list
     depth: Float
     hit: Float
+    footprint: list
 
 
 def columns(a: np.ndarray) -> list:
@@ -72,7 +73,7 @@ class DrJitBackend(Backend):
     # ------------------------------------------------------------------ training
     def set_data(self, rays: RaySet) -> None:
         self.data = DeviceRays(columns(rays.origins), columns(rays.directions), columns(rays.target),
-                               Float(rays.depth), Float(rays.hit))
+                               Float(rays.depth), Float(rays.hit), columns(rays.footprint.reshape(len(rays), -1)))
         self.n_pixels = len(rays)
 
     def _new_step(self):
@@ -86,7 +87,7 @@ class DrJitBackend(Backend):
         # garbage collector at any moment, also while a frozen call records (see step())
         model, cfg, n_final = self.model, self.cfg, self.n_final
         near, far, B = self.near, self.far, cfg.batch_rays
-        use_weights = cfg.needs_weights
+        use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
 
         def step(opt, data, n_pixels, seed, lr, occupied):
             # Dr.Jit 1.5.0's Adam multiplies an array-valued learning rate *in place* by each
@@ -96,8 +97,16 @@ class DrJitBackend(Backend):
             idx = hash_u32(hash_u32(seed) ^ dr.arange(UInt32, B)) % n_pixels
             g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
             params = {k: opt[k] for k in opt.keys()}
-            outs = model.render(params, g(data.origins), g(data.directions), near, far, seed, training=True,
-                                weights=use_weights, occupied=occupied)
+            d = g(data.directions)
+            if jitter:                  # a ray through a random point of the pixel (twin: backend.jitter_np)
+                ray = dr.arange(UInt32, B)
+                a, b = (uniform(seed ^ 0x68E31DA4, ray, UInt32(k)) - 0.5 for k in (0, 1))
+                fp = g(data.footprint)
+                d = [d[i] + a * fp[i] + b * fp[D + i] for i in range(D)]
+                inv = dr.rsqrt(sum(di * di for di in d))
+                d = [di * inv for di in d]
+            outs = model.render(params, g(data.origins), d, near, far, seed, training=True, weights=use_weights,
+                                occupied=occupied)
             loss = training_loss(cfg, n_final, losses, outs, g(data.target), dr.gather(Float, data.depth, idx),
                                  dr.gather(Float, data.hit, idx), model.regularizer(params, seed))
             dr.backward(loss)

@@ -12,7 +12,7 @@ from ..reference.render.occupancy import OccupancyGrid
 from ..reference.render.pipeline import Model
 from ..reference.train import losses
 from ..rng import batch_indices
-from .backend import Backend, model_fields
+from .backend import Backend, jitter_np, model_fields
 from .backend_drjit import build_model
 
 
@@ -47,7 +47,7 @@ class TorchBackend(Backend):
 
     def set_data(self, rays: RaySet) -> None:
         self.data = {k: torch.from_numpy(np.ascontiguousarray(getattr(rays, k)))
-                     for k in ("origins", "directions", "target", "depth", "hit")}
+                     for k in ("origins", "directions", "target", "depth", "hit", "footprint")}
         self.n_pixels = len(rays)
 
     def step(self, index: int, seed: int, lr: float):
@@ -58,7 +58,10 @@ class TorchBackend(Backend):
             group["lr"] = lr
         b = {k: v[torch.from_numpy(batch_indices(seed, self.cfg.batch_rays, self.n_pixels))]
              for k, v in self.data.items()}
-        outs = self.model.render(b["origins"], b["directions"], self.near, self.far, seed, training=True,
+        d = b["directions"]
+        if self.model_cfg.render.pixel_jitter:
+            d = torch.from_numpy(jitter_np(seed, d.numpy(), b["footprint"].numpy()).astype(np.float32))
+        outs = self.model.render(b["origins"], d, self.near, self.far, seed, training=True,
                                  weights=self.cfg.needs_weights, occupancy=self.occupancy)
         loss = self.loss(losses, outs, b["target"], b["depth"], b["hit"], self.model.regularizer(seed))
         self.opt.zero_grad(set_to_none=True)

@@ -94,11 +94,13 @@ def classify(rgb: np.ndarray, opacity: np.ndarray, split: Split, background) -> 
 
 
 def render_split(backend, split: Split) -> tuple[dict, float]:
-    """Renders of every view of ``split`` shaped ``[n, H, W, ...]``, and the seconds they took."""
+    """Renders of every view of ``split`` shaped ``[n, H, W, ...]`` (``eval_spp`` rays per
+    pixel), and the seconds they took."""
     o, d = split.cameras.rays()
     D = o.shape[-1]
     t0 = time.perf_counter()
-    out = backend.render(o.reshape(-1, D), d.reshape(-1, D))
+    out = backend.render(o.reshape(-1, D), d.reshape(-1, D), footprint=split.cameras.footprint().reshape(-1, 2, D),
+                         spp=backend.model_cfg.render.eval_spp)
     elapsed = time.perf_counter() - t0
     shape = o.shape[:-1]
     return {"rgb": out["rgb"].reshape(*shape, 3), "depth": out["depth"].reshape(shape),
