@@ -10,6 +10,7 @@ from ..data.generate import make_dataset
 from ..data.rig import RigConfig, noise_preset
 from ..errors import ConfigError
 from ..scenes.gt_render import RenderSettings
+from ..scenes.looks import MATERIALS
 from ..scenes.registry import get_scene
 from ..viz.rigs import plot_rig_2d, plot_rig_3d
 from ..viz.strips import split_figures
@@ -18,7 +19,8 @@ from .args import number
 
 def register(sub) -> None:
     p = sub.add_parser("dataset", help="render a dataset of a scene")
-    p.add_argument("--scene", default=None, help="scene name, or a path to a Mitsuba XML file")
+    p.add_argument("--scene", default=None, help="scene name (with an optional look: bunny_glossy, "
+                   "vase_plastic_env), or a path to a Mitsuba XML file")
     p.add_argument("--polygon", default=None, help="JSON file with a closed ring of [x, y] points (a 2D scene)")
     p.add_argument("--out", required=True, help="output folder (new, empty, or an earlier dataset of mitnerf's)")
     p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files "
@@ -35,7 +37,15 @@ def register(sub) -> None:
                    help="scale of all placement noise (1: radius 0.1, angle 2 deg, position 0.05, look 1 deg)")
     for name in ("radius-std", "angle-std", "position-std", "look-std"):
         p.add_argument(f"--{name}", type=number(False, 0, 1e4), default=None, help="override one noise parameter")
-    p.add_argument("--spp", type=number(True, 1, 1 << 16), default=64, help="samples per pixel for colour")
+    p.add_argument("--spp", type=number(True, 1, 1 << 16), default=None, help="samples per pixel for colour "
+                   "(default: converged, 64 with all_lights, 1024 with path; fewer gives a noisy ground truth)")
+    p.add_argument("--material", choices=list(MATERIALS), default=None,
+                   help="surface: diffuse (default), plastic (needs --env), roughplastic, roughconductor, "
+                   "or textured (a barcode along a 2D outline)")
+    p.add_argument("--env", action="store_true", help="light the scene by a sky with a sun instead of point lights")
+    p.add_argument("--integrator", choices=["all_lights", "path"], default=None,
+                   help="all_lights: noise-free sum over point lights (default); path: Mitsuba's path tracer "
+                   "(default with --env)")
     p.add_argument("--seed", type=number(True, 0, 2 ** 32 - 1), default=0,
                    help="seed of placement noise and of the renderer")
     p.add_argument("--format", choices=["nerf2d", "blender", "nerfstudio", "tiny_nerf"], default=None,
@@ -50,7 +60,9 @@ def register(sub) -> None:
 
 
 def run_dataset(args) -> int:
-    scene = get_scene(args.scene, polygon=args.polygon, kind=args.kind)
+    scene = get_scene(args.scene, polygon=args.polygon, kind=args.kind, material=args.material, env=args.env)
+    integrator = args.integrator or ("path" if scene.lighting == "env" else "all_lights")
+    spp = args.spp or (1024 if integrator == "path" else 64)
     dim = 2 if scene.kind == "2d" else 3
     fmt = args.format or ("nerf2d" if dim == 2 else "blender")
     if (fmt == "nerf2d" and dim == 3) or (fmt in ("blender", "tiny_nerf") and dim == 2):
@@ -62,7 +74,7 @@ def run_dataset(args) -> int:
                     resolution=args.resolution, fov=args.fov, layout=args.layout, seed=args.seed, **noise)
     rig.validate()
     target = check_output(args.out, fmt, args.overwrite)          # refused before rendering
-    ds = make_dataset(scene, rig, RenderSettings(spp=args.spp, seed=args.seed))
+    ds = make_dataset(scene, rig, RenderSettings(spp=spp, seed=args.seed, integrator=integrator))
     if target is None:
         atomic_write_bytes(Path(args.out), tiny_nerf_bytes(ds))
     else:

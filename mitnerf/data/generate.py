@@ -8,6 +8,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .. import __version__
+from ..errors import ConfigError
 from ..scenes.gt_render import RenderSettings, exact_depth, render_color
 from ..scenes.registry import SceneInfo
 from .cameras import Cameras
@@ -34,6 +35,9 @@ def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderS
     if rig.dim != expected:
         rig = dataclasses.replace(rig, dim=expected)
     render = render or RenderSettings()
+    if scene.lighting == "env" and render.integrator == "all_lights":
+        raise ConfigError(f"{scene.name} is lit by an environment, which the all_lights integrator cannot sum; "
+                          "render it with integrator 'path' (--integrator path, the default with --env)")
     cams = make_rig(rig).splits()
     mi_scene = scene.load()
     per_view = rig.resolution * (1 if rig.dim == 2 else rig.resolution) * render.spp
@@ -57,6 +61,8 @@ def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderS
         meta["polygon"] = np.r_[scene.polygon.points, scene.polygon.points[:1]].tolist()
     if scene.mesh is not None:
         meta["mesh"] = str(scene.mesh)
-    if "texture" in scene.variables:
-        meta["texture"] = scene.variables["texture"]
+    if scene.texture is not None:
+        meta["texture"] = str(scene.texture)
+    if (scene.material, scene.lighting) != ("diffuse", "points"):    # default datasets keep their bytes
+        meta.update(material=scene.material, lighting=scene.lighting)
     return Dataset(splits, near, far, meta)

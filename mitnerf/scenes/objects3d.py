@@ -5,6 +5,8 @@
   procedural 3D colour pattern baked into per-vertex colours (they carry no UVs).
 * ``vase``: a procedural surface of revolution with UVs and a painted image texture,
   the stand-in for a few-photo product shot.
+* ``brick``: a Lego-like toy bulldozer with a texture atlas of fine prints
+  (:mod:`mitnerf.scenes.brick`), the stand-in for tiny-NeRF's Lego.
 
 Each builder writes its assets (PLY, PNG) and returns them as XML ``$variables``.
 """
@@ -16,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .._io import atomic_write_bytes
+from .brick import brick_mesh
 from .ply import write_ply
 
 # name -> (pyvista loader, up axis of the raw mesh, stripe direction, hue offset)
@@ -119,20 +122,22 @@ def vase_mesh(n_around: int = 160, n_up: int = 120):
     return verts, faces, uv
 
 
-def build_vase(out_dir: Path) -> dict[str, str]:
+def build_textured(name: str, out_dir: Path, verts, faces, uv, texture: np.ndarray) -> dict[str, str]:
+    """Write a mesh with UVs and its sRGB texture (``[H, W, 3]`` uint8)."""
     import imageio.v3 as iio
 
-    verts, faces, uv = vase_mesh()
-    mesh = write_ply(out_dir / "vase.ply", verts, faces, uv=uv)
-    tex = atomic_write_bytes(out_dir / "vase_texture.png", iio.imwrite("<bytes>", vase_texture(), extension=".png"))
+    mesh = write_ply(out_dir / f"{name}.ply", verts, faces, uv=uv)
+    tex = atomic_write_bytes(out_dir / f"{name}_texture.png", iio.imwrite("<bytes>", texture, extension=".png"))
     return {"mesh": str(mesh), "texture": str(tex)}
 
 
 def build_object(name: str, out_dir: Path) -> dict[str, str]:
     """Write the assets of 3D object ``name`` into ``out_dir``; return XML variables."""
     if name == "vase":
-        return build_vase(out_dir)
+        return build_textured(name, out_dir, *vase_mesh(), vase_texture())
+    if name == "brick":
+        return build_textured(name, out_dir, *brick_mesh())
     return build_pyvista_object(name, out_dir)
 
 
-OBJECTS_3D = ("vase", *PYVISTA_OBJECTS)
+OBJECTS_3D = ("vase", "brick", *PYVISTA_OBJECTS)

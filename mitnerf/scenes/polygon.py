@@ -17,6 +17,9 @@ import numpy as np
 
 from ..errors import MitnerfError
 
+MAX_POINTS = 10_000
+"""Most outline points mitnerf takes (the self-intersection test is quadratic in them)."""
+
 
 def _segments_intersect(p, p2, q, q2) -> np.ndarray:
     """Proper or touching intersection of segment sets [p, p2] and [q, q2] (broadcast)."""
@@ -46,6 +49,21 @@ def outline_color(s: np.ndarray) -> np.ndarray:
     return 0.5 + 0.38 * np.cos(2.0 * np.pi * (s[:, None] + phase))
 
 
+def outline_stripes(perimeter: float, texels_per_unit: int = 200, seed: int = 0) -> np.ndarray:
+    """A 1D texture along the outline for the ``textured`` material: the colour cycle of
+    :func:`outline_color` crossed by a barcode of dark bars and gaps 0.025, 0.05 or 0.1
+    world units wide (about 0.6 to 2.5 pixels of a 100-pixel view from radius 4).
+    Linear reflectance, ``[1, W, 3]`` float32; texel ``k`` covers arc-length fraction
+    ``[k, k + 1) / W``."""
+    n = int(np.ceil(perimeter * texels_per_unit))
+    s = (np.arange(n) + 0.5) / n
+    widths = np.random.default_rng(seed).choice([0.025, 0.05, 0.1], size=int(perimeter / 0.025) + 1)
+    bar = np.searchsorted(np.cumsum(widths) / perimeter, s, side="right") % 2 == 1
+    col = outline_color(s)
+    col[bar] *= 0.12
+    return col[None].astype(np.float32)
+
+
 @dataclass(frozen=True)
 class Polygon:
     """A simple closed outline, counter-clockwise, without the repeated end point."""
@@ -57,6 +75,12 @@ class Polygon:
     @classmethod
     def from_points(cls, points, name: str = "custom") -> "Polygon":
         """Validate a closed ring (last point == first point) and normalise its winding."""
+        if isinstance(points, (list, tuple)):          # from JSON: real numbers only, not "0.5" or true
+            for i, p in enumerate(points):
+                if not (isinstance(p, (list, tuple)) and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                             for v in p)):
+                    raise MitnerfError(f"polygon {name!r}: point {i} is {json.dumps(p, default=str)[:40]}, not a "
+                                       "pair of numbers; write the points as [[x0, y0], [x1, y1], ..., [x0, y0]]")
         try:
             pts = np.asarray(points, dtype=np.float64)
         except (TypeError, ValueError):
@@ -73,6 +97,9 @@ class Polygon:
                 f"polygon {name!r} is open: its last point {last} differs from its first {first}; "
                 "repeat the first point at the end to close it")
         pts = pts[:-1]
+        if len(pts) > MAX_POINTS:
+            raise MitnerfError(f"polygon {name!r} has {len(pts)} points; mitnerf takes at most {MAX_POINTS}: "
+                               "simplify the outline")
         if len(np.unique(np.round(pts, 12), axis=0)) != len(pts):
             raise MitnerfError(f"polygon {name!r} repeats a vertex; remove the duplicate points")
         if len(pts) < 3:
@@ -96,13 +123,21 @@ class Polygon:
         """Read ``{"name": ..., "points": [[x, y], ...]}`` or a bare list of points."""
         path = Path(path)
         try:
-            data = json.loads(path.read_text())
+            data = json.loads(path.read_text(encoding="utf-8"))
         except OSError as exc:
             raise MitnerfError(f"cannot read polygon file {path}: {exc.strerror}; check the path") from None
+        except UnicodeDecodeError:
+            raise MitnerfError(f"polygon file {path} is not UTF-8 text; save it as UTF-8 JSON") from None
         except json.JSONDecodeError as exc:
             raise MitnerfError(f"polygon file {path} is not valid JSON ({exc.msg} at line {exc.lineno}); fix the file") from None
+        except RecursionError:
+            raise MitnerfError(f"polygon file {path} nests too deeply to be a list of points; fix the file") from None
         if isinstance(data, dict):
-            return cls.from_points(data.get("points", []), data.get("name", path.stem))
+            name = data.get("name", path.stem)
+            if not isinstance(name, str):
+                raise MitnerfError(f"polygon file {path}: 'name' must be a string, got "
+                                   f"{json.dumps(name, default=str)[:40]}; fix or delete it")
+            return cls.from_points(data.get("points", []), name)
         return cls.from_points(data, path.stem)
 
     # ----------------------------------------------------------------- geometry
@@ -127,11 +162,15 @@ class Polygon:
         """Pairs of non-adjacent edges that touch or cross."""
         a, b = self.edges
         n = len(a)
-        i, j = np.triu_indices(n, k=2)
-        keep = ~((i == 0) & (j == n - 1))  # the first and last edges share a vertex
-        i, j = i[keep], j[keep]
-        hit = _segments_intersect(a[i], b[i], a[j], b[j])
-        return list(zip(i[hit].tolist(), j[hit].tolist()))
+        out = []
+        rows = max(1, (1 << 21) // max(n, 1))     # pairs tested in blocks of about 2M: bounded memory
+        for i0 in range(0, n, rows):
+            I, J = np.arange(i0, min(n, i0 + rows))[:, None], np.arange(n)[None, :]
+            i, j = np.nonzero((J >= I + 2) & ~((I == 0) & (J == n - 1)))  # the first and last edges share a vertex
+            i += i0
+            hit = _segments_intersect(a[i], b[i], a[j], b[j])
+            out += zip(i[hit].tolist(), j[hit].tolist())
+        return out
 
     def contains(self, xy: np.ndarray) -> np.ndarray:
         """Even-odd inside test for points ``[m, 2]``."""
@@ -208,3 +247,15 @@ class Polygon:
         cols = np.concatenate([cols, cap_col, cap_col])
         faces = np.concatenate([faces, n0 + tri, n0 + k + tri[:, ::-1]])
         return verts.astype(np.float32), faces.astype(np.int32), cols.astype(np.float32)
+
+    def prism_uv(self, half_height: float = 1.0, max_len: float = 0.05):
+        """The mesh of :meth:`prism` with texture coordinates instead of colours: ``u`` is
+        the arc-length fraction along the wall (1 at the closing vertex, so a texture
+        wraps once), ``v`` goes up; caps sit at ``u = 0``. Returns ``(vertices, faces, uv [v, 2])``."""
+        v, f, _ = self.prism(half_height, max_len)
+        _, s = self.resampled(max_len)
+        s_next = np.r_[s[1:], 1.0]
+        uv = np.zeros((len(v), 2), np.float32)
+        uv[:4 * len(s), 0] = np.stack([s, s_next, s_next, s], 1).ravel()
+        uv[:, 1] = (v[:, 2] + half_height) / (2 * half_height)
+        return v, f, uv

@@ -4,12 +4,18 @@
 ``scenes_xml/polygons/<name>.json``; mitnerf extrudes them into a prism PLY and loads
 ``scenes_xml/<name>.xml`` with ``$mesh`` pointing at it. A user polygon goes through
 the same path with ``scenes_xml/custom2d.xml``. 3D objects (``vase``, ``ant``,
-``airplane``, ``nut``) write their mesh and texture on first use. Generated assets
-are cached under ``$MITNERF_CACHE`` with a content hash in the file name.
+``airplane``, ``nut``, ``brick``) write their mesh and texture on first use. Generated
+assets are cached under ``$MITNERF_CACHE`` with a content hash in the file name.
+
+Every library scene also comes in other looks (:mod:`mitnerf.scenes.looks`): a material
+and an environment light, chosen by arguments of :func:`get_scene` or by a name such as
+``bunny_glossy`` or ``vase_roughconductor_env``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -17,8 +23,9 @@ from typing import Literal
 from .._io import cache_entry, digest
 from .._variant import ensure_variant
 from ..errors import DataError
+from .looks import check_look, split_variant, styled_scene, variant_name
 from .objects3d import OBJECTS_3D, build_object
-from .polygon import Polygon
+from .polygon import Polygon, outline_stripes
 from .ply import write_ply
 
 SCENES_XML = Path(__file__).resolve().parents[2] / "scenes_xml"
@@ -45,13 +52,23 @@ class SceneInfo:
     polygon: Polygon | None = None
     """The outline (2D scenes): the analytic reference for depth tests and plots."""
     mesh: Path | None = None
-    """The object's mesh (PLY): for rig plots, Chamfer distances and mesh export."""
+    """The object's mesh (PLY): for rig plots, Chamfer distances and mesh export; the
+    shape that non-default looks render (the ``textured`` outline: the prism with UVs)."""
     radius: float = 1.0
     """Radius of a sphere (2D: circle) around the origin that holds the object."""
+    texture: Path | None = None
+    """The image texture of a mesh with UVs (``vase``, ``brick``, a ``textured`` outline)."""
+    material: str = "diffuse"
+    """``diffuse``, ``plastic``, ``roughplastic``, ``roughconductor`` or ``textured`` (2D)."""
+    lighting: str = "points"
+    """``points`` (the XML's point lights) or ``env`` (a sky with a sun: render with ``path``)."""
 
     def load(self, **overrides):
         """Load into the current Mitsuba variant. Errors name the file and the fix."""
-        return load_xml(self.xml, **{**self.variables, **overrides})
+        scene = load_xml(self.xml, **{**self.variables, **overrides})
+        if self.material == "diffuse" and self.lighting == "points":
+            return scene
+        return styled_scene(self, scene.emitters())
 
 
 def load_xml(path: Path, **variables):
@@ -62,11 +79,17 @@ def load_xml(path: Path, **variables):
     if not path.is_file():
         raise DataError(f"scene file {path} does not exist; check the path (scenes live in {SCENES_XML})")
     try:
-        return mi.load_file(str(path), **{k: str(v) for k, v in variables.items()})
+        scene = mi.load_file(str(path), **{k: str(v) for k, v in variables.items()})
     except RuntimeError as exc:
         msg = " ".join(str(exc).split())
         msg = msg.split("] ", 1)[-1] if msg.startswith("[") else msg
         raise DataError(f"cannot load scene file {path}: {msg}; fix the XML") from None
+    if not isinstance(scene, mi.Scene):      # a file whose root is one <shape>, <bsdf>, ... loads as that object
+        raise DataError(f"scene file {path} holds a {type(scene).__name__}, not a scene; wrap it in "
+                        '<scene version="3.0.0"> ... </scene>')
+    if not scene.shapes():
+        raise DataError(f"scene file {path} has no shapes, so every view would be empty; add a <shape>")
+    return scene
 
 
 def prism_mesh(polygon: Polygon) -> Path:
@@ -76,7 +99,40 @@ def prism_mesh(polygon: Polygon) -> Path:
         write_ply(tmp / "prism.ply", v, f, colors=c)
 
     key = digest(ASSET_VERSION, polygon.points.tobytes())
-    return cache_entry(f"meshes/{polygon.name}-{key}", build) / "prism.ply"
+    return cache_entry(f"meshes/{_slug(polygon.name)}-{key}", build) / "prism.ply"
+
+
+def _slug(name) -> str:
+    """A user's polygon name as a safe file name (no "/", "..", or 300 characters)."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", str(name)).strip("._")[:40] or "polygon"
+
+
+def textured_prism(polygon: Polygon) -> tuple[Path, Path]:
+    """Write (or reuse) the prism with UVs and its barcode texture along the outline."""
+    import mitsuba as mi
+
+    ensure_variant()
+
+    def build(tmp: Path) -> None:
+        v, f, uv = polygon.prism_uv()
+        write_ply(tmp / "prism_uv.ply", v, f, uv=uv)
+        mi.Bitmap(outline_stripes(polygon.perimeter())).write(str(tmp / "stripes.exr"))
+
+    key = digest(ASSET_VERSION, polygon.points.tobytes())
+    folder = cache_entry(f"meshes/{_slug(polygon.name)}-textured-{key}", build)
+    return folder / "prism_uv.ply", folder / "stripes.exr"
+
+
+def with_look(info: SceneInfo, material: str = "diffuse", lighting: str = "points") -> SceneInfo:
+    """``info`` in another look, renamed ``<name>[_<material>][_env]``."""
+    check_look(info.name, info.kind, material, lighting, info.mesh is not None)
+    if (material, lighting) == ("diffuse", "points"):
+        return info
+    mesh, texture = info.mesh, info.texture
+    if material == "textured":
+        mesh, texture = textured_prism(info.polygon)
+    return dataclasses.replace(info, name=variant_name(info.name, material, lighting), mesh=mesh,
+                               texture=texture, material=material, lighting=lighting)
 
 
 def scene_2d(polygon: Polygon, xml: Path | None = None) -> SceneInfo:
@@ -95,35 +151,44 @@ def object_3d(name: str) -> SceneInfo:
     folder = cache_entry(f"objects/{name}-{digest(ASSET_VERSION, name)}", build)
     variables = {k: str(folder / v) for k, v in
                  (line.split("=", 1) for line in (folder / "variables.txt").read_text().splitlines())}
-    return SceneInfo(name, "3d", SCENES_XML / f"{name}.xml", variables, mesh=Path(variables["mesh"]), radius=1.0)
+    texture = Path(variables["texture"]) if "texture" in variables else None
+    return SceneInfo(name, "3d", SCENES_XML / f"{name}.xml", variables, mesh=Path(variables["mesh"]), radius=1.0,
+                     texture=texture)
 
 
-def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None = None) -> SceneInfo:
+def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None = None,
+              material: str | None = None, env: bool = False) -> SceneInfo:
     """Resolve a scene: a registry name, a path to an XML file, or a user polygon.
 
     ``polygon`` may be a :class:`Polygon`, a list of points (a closed ring) or a
-    path to a JSON file; it takes precedence over ``scene``.
+    path to a JSON file; it takes precedence over ``scene``. A registry name may carry a
+    look (``bunny_glossy``, ``vase_plastic_env``); ``material`` and ``env`` choose one too.
     """
     if polygon is not None:
         if not isinstance(polygon, Polygon):
             polygon = (Polygon.from_json(polygon) if isinstance(polygon, (str, Path))
                        else Polygon.from_points(polygon))
-        return scene_2d(polygon)
+        return with_look(scene_2d(polygon), material or "diffuse", "env" if env else "points")
     if scene is None:
         raise DataError(f"no scene given; pass one of {', '.join(scene_names())} or a polygon")
     name = str(scene)
-    if name in SCENES_2D:
-        poly = Polygon.from_json(SCENES_XML / "polygons" / f"{name}.json")
-        return scene_2d(poly, SCENES_XML / f"{name}.xml")
-    if name in OBJECTS_3D:
-        return object_3d(name)
+    base, named_material, named_env = split_variant(name)
+    if base in SCENES_2D + OBJECTS_3D:
+        if named_material and material and named_material != material:
+            raise DataError(f"scene {name} already has material {named_material}; drop --material {material} "
+                            f"or pass --scene {base}")
+        if base in SCENES_2D:
+            info = scene_2d(Polygon.from_json(SCENES_XML / "polygons" / f"{base}.json"), SCENES_XML / f"{base}.xml")
+        else:
+            info = object_3d(base)
+        return with_look(info, material or named_material or "diffuse", "env" if env or named_env else "points")
     if name.endswith(".xml"):
         path = Path(name)
         if not path.is_file():
             raise DataError(f"scene file {path} does not exist; check the path")
         info = SceneInfo(path.stem, "2d" if kind == "2d" else "3d", path.resolve())
         info.load()  # fail early on malformed XML
-        return info
+        return with_look(info, material or "diffuse", "env" if env else "points")
     raise DataError(
-        f"unknown scene {name!r}; choose one of {', '.join(scene_names())}, "
-        "give a path to a Mitsuba XML file, or pass --polygon FILE")
+        f"unknown scene {name!r}; choose one of {', '.join(scene_names())} (optionally with a look, "
+        "e.g. bunny_glossy or vase_roughconductor_env), give a path to a Mitsuba XML file, or pass --polygon FILE")
