@@ -68,7 +68,6 @@ def object_mesh(mesh_path: str | Path, texture_path: str | Path | None = None):
     """A pyvista mesh of one of our PLYs, with its vertex colours (or UVs + texture)."""
     import pyvista as pv
 
-
     ply = read_ply(mesh_path)
     faces = np.c_[np.full(len(ply["faces"]), 3), ply["faces"]].ravel()
     mesh = pv.PolyData(ply["vertices"].astype(np.float64), faces)
@@ -76,7 +75,9 @@ def object_mesh(mesh_path: str | Path, texture_path: str | Path | None = None):
     if "colors" in ply:
         mesh.point_data["RGB"] = (linear_to_srgb(ply["colors"]) * 255).astype(np.uint8)
     if "uv" in ply and texture_path is not None and Path(texture_path).exists():
-        mesh.active_texture_coordinates = ply["uv"].astype(np.float32)
+        uv = ply["uv"].astype(np.float32)
+        uv[:, 1] = 1.0 - uv[:, 1]               # Mitsuba reads v from the image's top row, VTK from its bottom
+        mesh.active_texture_coordinates = uv
         texture = pv.read_texture(str(texture_path))
     return mesh, texture
 
