@@ -66,7 +66,7 @@ FIELD_ARGS = {   # small fields, each with view dependence
 # (label, network mode or None, integral) per field
 VARIANTS = {
     "vanilla": [("custom op, coopvec field", "coopvec", "replay"), ("custom op, tensor field", "tensor", "replay"),
-                ("drjit plain AD", "tensor", "autodiff")],
+                ("custom op, native MLP", "native", "replay"), ("drjit plain AD", "tensor", "autodiff")],
     "grid": [("custom op, fused grid", None, "replay"), ("drjit plain AD", None, "autodiff")],
     "hashgrid": [("custom op, coopvec nets", "coopvec", "replay"), ("custom op, tensor nets", "tensor", "replay"),
                  ("drjit plain AD", "tensor", "autodiff")],

@@ -29,6 +29,15 @@ def torch_default_init(shapes, rng: np.random.Generator) -> dict[str, np.ndarray
     return out
 
 
+def check_shapes(shapes, arrays: dict) -> None:
+    """Refuse canonical weights that do not fit the layers ``shapes``."""
+    for name, o, i in shapes:
+        w, b = np.asarray(arrays[f"{name}.weight"]), np.asarray(arrays[f"{name}.bias"])
+        if w.shape != (o, i) or b.shape != (o,):
+            raise CheckpointError(f"{name}: expected weight {(o, i)} and bias {(o,)}, got {w.shape}, {b.shape}; "
+                                  "the checkpoint was saved with another architecture")
+
+
 class LinearLayers:
     """Storage and evaluation of the layers ``shapes = [(name, out, in), ...]``."""
 
@@ -42,12 +51,10 @@ class LinearLayers:
 
     # ------------------------------------------------------------------ storage
     def from_numpy(self, arrays: dict) -> dict:
+        check_shapes(self.shapes, arrays)
         mats = []
-        for name, o, i in self.shapes:
+        for name, _, _ in self.shapes:
             w, b = np.asarray(arrays[f"{name}.weight"]), np.asarray(arrays[f"{name}.bias"])
-            if w.shape != (o, i) or b.shape != (o,):
-                raise CheckpointError(f"{name}: expected weight {(o, i)} and bias {(o,)}, got {w.shape}, {b.shape}; "
-                                 "the checkpoint was saved with another architecture")
             mats += [TensorXf(w.astype(np.float32)), TensorXf(b.astype(np.float32))]
         if self.mode == "tensor":
             names = [f"{n}.{k}" for n, _, _ in self.shapes for k in ("weight", "bias")]

@@ -6,7 +6,7 @@ layer ``skip``. A linear density head gives sigma through the density activation
 the colour branch maps [trunk features, encoded view direction] (or the features
 alone without view dependence) through ``width/2`` ReLU units to a sigmoid RGB.
 
-Two evaluation modes compute the same function:
+Three evaluation modes compute the same function:
 
 * ``coopvec``: ``drjit.nn`` cooperative vectors on one packed weight buffer. Runs per
   ray step inside a symbolic loop (``traceable``), so the fused volume integral never
@@ -15,34 +15,42 @@ Two evaluation modes compute the same function:
 * ``tensor``: matrix products on feature-major ``[channels, n_samples]`` tensors
   (Dr.Jit's GEMM kernels, :mod:`.dense`), evaluated on all samples at once; faster
   for wide layers.
+* ``native``: the whole MLP in a C kernel (:mod:`.native`) wrapped as a ``dr.CustomOp``
+  on one flat weight buffer, evaluated on all samples at once; near the machine's GEMM
+  peak (``benchmarks/step_time.py``).
 
-``mode='auto'`` picks by width (see ``COOPVEC_MAX_WIDTH``, from
-``benchmarks/coopvec_vs_tensor.py``). Canonical weights are named and shaped as
-PyTorch's ``nn.Linear`` (``trunk.0.weight`` is ``[out, in]``).
+``mode='auto'`` is :func:`auto_mode`: the native kernel where it builds, else cooperative
+vectors up to ``COOPVEC_MAX_WIDTH`` and tensor GEMMs above (``benchmarks/step_time.py``
+measures all three per width). Canonical weights are named and shaped as PyTorch's
+``nn.Linear`` (``trunk.0.weight`` is ``[out, in]``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float
 
 from ..errors import ConfigError
 from .base import check_config, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size, positional_encoding
-from .layers import LinearLayers, torch_default_init
+from .layers import LinearLayers, check_shapes, torch_default_init
+from .native import library, native_mlp
 
-MODES = ("auto", "coopvec", "tensor")
+MODES = ("auto", "native", "coopvec", "tensor")
 COOPVEC_MAX_WIDTH = 16
-"""Widest layer for which ``mode='auto'`` uses cooperative vectors. Measured with
-``benchmarks/coopvec_vs_tensor.py`` (2 cores, depth 4, 64 samples x 1024 rays, ms per
-training step, coopvec / tensor), two runs: width 8: 22.5 / 26.7 and 24.9 / 54.0;
-16: 53.9 / 37.5 and 61.2 / 70.3; 24: 94.0 / 47.4 (second run); 32: 163 / 58.5 and
-165 / 59.1; 64: 607 / 115 and 654 / 115; 128: 1651 / 275 and 1492 / 263. Width 16 is a
-toss-up (CoopVec 44 % slower in one run, 13 % faster in the other); it stays on
-cooperative vectors because they keep the integral's memory O(rays). From 24 on GEMMs
-win by 2x and more."""
+"""Without the native kernel, the widest layer for which cooperative vectors beat tensor
+GEMMs (their weight gradient issues one atomic per weight per SIMD packet; the crossover
+is measured by ``benchmarks/step_time.py``)."""
+
+
+def auto_mode(width: int) -> str:
+    """The fastest mode available for layers of ``width`` (see the module docstring)."""
+    if library() is not None:
+        return "native"
+    return "coopvec" if width <= COOPVEC_MAX_WIDTH else "tensor"
 
 
 @dataclass
@@ -84,9 +92,9 @@ class NeRFConfig:
 
     @property
     def resolved_mode(self) -> str:
-        if self.mode != "auto":
-            return self.mode
-        return "coopvec" if self.width <= COOPVEC_MAX_WIDTH else "tensor"
+        if self.mode == "native" and library() is None:
+            return auto_mode(self.width)            # no compiler: the pure Dr.Jit path
+        return auto_mode(self.width) if self.mode == "auto" else self.mode
 
 
 def layer_shapes(cfg: NeRFConfig) -> list[tuple[str, int, int]]:
@@ -119,7 +127,9 @@ class NeRFField:
         self.dim = cfg.dim
         self.mode = cfg.resolved_mode
         self.traceable = self.mode == "coopvec"
-        self.layers = LinearLayers(layer_shapes(cfg), self.mode)
+        self.freezable = self.mode != "native"       # a frozen step cannot record a call into C
+        self.shapes = layer_shapes(cfg)
+        self.layers = None if self.mode == "native" else LinearLayers(self.shapes, self.mode)
 
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         return init_weights(self.cfg, seed)
@@ -128,10 +138,21 @@ class NeRFField:
         return self.from_numpy(self.init_numpy(seed))
 
     def from_numpy(self, arrays: dict[str, np.ndarray]) -> dict:
-        return self.layers.from_numpy(arrays)
+        if self.layers is not None:
+            return self.layers.from_numpy(arrays)
+        check_shapes(self.shapes, arrays)
+        return {"mlp": Float(np.concatenate([np.asarray(arrays[f"{n}.{k}"], np.float32).ravel()
+                                             for n, _, _ in self.shapes for k in ("weight", "bias")]))}
 
     def to_numpy(self, params: dict) -> dict[str, np.ndarray]:
-        return self.layers.to_numpy(params)
+        if self.layers is not None:
+            return self.layers.to_numpy(params)
+        flat, out, at = np.asarray(params["mlp"]), {}, 0
+        for name, o, i in self.shapes:
+            out[f"{name}.weight"] = flat[at:at + o * i].reshape(o, i).copy()
+            out[f"{name}.bias"] = flat[at + o * i:at + o * i + o].copy()
+            at += o * i + o
+        return out
 
     def density(self, params: dict, x) -> Float:
         sigma, _ = self._evaluate(params, x, None, color=False)
@@ -143,6 +164,12 @@ class NeRFField:
     def _evaluate(self, params, x, d, color: bool):
         cfg, L = self.cfg, self.layers
         enc_x = positional_encoding([xi * (1.0 / cfg.bound) for xi in x], cfg.pos_L)
+        if L is None:                               # native: directions do not change the density
+            d = d if d is not None else [dr.zeros(Float, dr.width(x[0]))] + [dr.full(Float, 1.0, dr.width(x[0]))] * (
+                cfg.dim - 1)
+            enc_d = direction_encoding(list(d), cfg.dir_L) if cfg.view_dependent else []
+            raw_sigma, raw_rgb = native_mlp(params["mlp"], enc_x, enc_d, (cfg.depth, cfg.width, cfg.skip))
+            return density_activation(raw_sigma, cfg.density_activation), [sigmoid(v) for v in raw_rgb]
         h = L.start(enc_x)
         for i in range(cfg.depth):
             if i == cfg.skip and i > 0:

@@ -80,7 +80,8 @@ class DrJitBackend(Backend):
         gc.collect()
         # auto_opaque=False: every input is opaque from the first recording on, so a changing
         # value never bakes into a kernel (two recordings: before and after Adam has state)
-        return dr.freeze(self._make_step(), auto_opaque=False) if self.cfg.freeze else self._make_step()
+        freeze = self.cfg.freeze and all(getattr(f, "freezable", True) for f in self.model.fields.values())
+        return dr.freeze(self._make_step(), auto_opaque=False) if freeze else self._make_step()
 
     def _make_step(self):
         # the closure holds no reference to the backend: a cycle would be freed by the cyclic
