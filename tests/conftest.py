@@ -55,3 +55,25 @@ def small(name: str = "vanilla-2d", **overrides):
     if "time_budget" not in overrides:
         r.train.time_budget = None
     return r
+
+
+# Hypothesis profiles (tests/test_fuzz.py): HYPOTHESIS_PROFILE=ci (the default: derandomized, a fixed number of
+# examples, the whole file well under a minute on 2 cores) or local (many more examples, random).
+try:
+    from hypothesis import HealthCheck, settings
+
+    settings.register_profile("ci", derandomize=True, max_examples=60, deadline=None, print_blob=True,
+                              suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
+                                                     HealthCheck.data_too_large])
+    settings.register_profile("local", max_examples=1000, deadline=None, print_blob=True,
+                              suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
+                                                     HealthCheck.data_too_large])
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+except ImportError:  # hypothesis is a test extra; only test_fuzz.py needs it
+    pass
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """Lines a test module left in ``config.mitnerf_summary`` (the fuzz suite's case counts)."""
+    for line in getattr(config, "mitnerf_summary", []):
+        terminalreporter.write_line(line)

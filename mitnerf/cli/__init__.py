@@ -22,6 +22,11 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str):
         raise ConfigError(f"{self.prog}: {message}; see `{self.prog} --help`")
 
+    def _get_values(self, action, arg_strings):
+        if action.nargs is None and action.option_strings and arg_strings == ["--"]:   # "--frames=--"
+            self.error(f"argument {'/'.join(action.option_strings)}: expected one value, got '--'")
+        return super()._get_values(action, arg_strings)
+
 
 def build_parser() -> Parser:
     parser = Parser(prog="mitnerf", description=__doc__.splitlines()[0])

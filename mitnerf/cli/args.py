@@ -8,9 +8,12 @@ comes from the recipe (:mod:`mitnerf.train.recipes`); no default is written twic
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 
-from ..errors import ConfigError, check_number
+from .._io import available_memory
+from ..errors import ConfigError, MitnerfError, check_number
+from ..fields import field_config
 from ..train.recipes import get_recipe, recipe_for
 
 
@@ -114,4 +117,68 @@ def recipe_from_args(args, dim: int):
     if args.recipe and args.field:
         raise ConfigError("--recipe and --field both choose the recipe; pass one of them")
     base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dim)
-    return base.override(**overrides(args)).validate()
+    check_set_types(base, args.sets)
+    recipe = base.override(**overrides(args)).validate()
+    check_step_memory(recipe)
+    return recipe
+
+
+def _kind(value) -> str:
+    if isinstance(value, bool):
+        return "true or false"
+    if isinstance(value, (int, float)):
+        return "a number"
+    if isinstance(value, (list, tuple)):
+        return "a list" + (f" of {_kind(value[0])[2:]}s" if value else "")
+    return "a string" if isinstance(value, str) else "null" if value is None else type(value).__name__
+
+
+def check_set_types(recipe, sets: list) -> None:
+    """A ``--set KEY=VALUE`` must have the type of the setting it replaces (a number for a number,
+    a list of numbers for ``upsample_at``): a string or a list where a number goes would otherwise
+    pass some checks and fail in the middle of training. Unknown keys are left to ``validate``."""
+    r = recipe.model.render
+    current = {**dataclasses.asdict(recipe.train),
+               **{k: v for k, v in dataclasses.asdict(r).items() if k != "occupancy"},
+               **{f"occupancy.{k}": v for k, v in dataclasses.asdict(r.occupancy).items()}}
+    try:
+        current.update(dataclasses.asdict(field_config(recipe.model.field, dim=recipe.dim)))
+    except (MitnerfError, TypeError):
+        pass
+    current.update(recipe.model.field_args)
+    for key, value in sets:
+        old = current.get(key)
+        if value is None and old is not None:         # null would be ignored, silently
+            raise ConfigError(f"--set {key}=null: {key} cannot be null; give a value, e.g. --set {key}="
+                              f"{json.dumps(old, default=str).replace(' ', '')}")
+        if value is None and key not in current:
+            raise ConfigError(f"--set {key}=null: the recipe has no setting {key!r}; see its settings with "
+                              "`mitnerf recipes`")
+        if old is None:
+            continue
+        ok = _kind(value) == _kind(old) or (isinstance(old, (list, tuple)) and not old and isinstance(value, list))
+        if isinstance(value, list) and isinstance(old, (list, tuple)) and old:
+            ok = all(_kind(v) == _kind(old[0]) for v in value)
+        if not ok:
+            was = json.dumps(old, default=str).replace(" ", "")
+            raise ConfigError(f"--set {key} must be {_kind(old)}, got {json.dumps(value, default=str)[:40]}; "
+                              f"write it as the recipe does, e.g. --set {key}={was}")
+
+
+SAMPLE_BYTES = 32
+"""The least memory one sample of a training step costs (position, direction, interval, density,
+colour, weight; an MLP field adds its activations, kept for the backward pass)."""
+
+
+def check_step_memory(recipe) -> None:
+    """Refuse, before training, a step (``--batch`` rays x ``--samples`` + ``--fine``) that would
+    not fit in the machine's memory; the estimate is a lower bound."""
+    r, t, args = recipe.model.render, recipe.train, recipe.model.field_args
+    samples = int(t.batch_rays) * (int(r.n_coarse) + int(r.n_fine))
+    mlp = int(args.get("width", 0) or 0) * int(args.get("depth", 0) or 0) + 2 * int(args.get("hidden", 0) or 0)
+    need = samples * (SAMPLE_BYTES + 3 * 4 * mlp)
+    avail = available_memory()
+    if avail is not None and need > avail:
+        raise ConfigError(f"a training step of {t.batch_rays} rays x {r.n_coarse + r.n_fine} samples "
+                          f"({samples:,} samples) needs at least {need / 2**30:.1f} GiB; this machine has "
+                          f"{avail / 2**30:.1f} GiB available: lower --batch, --samples or --fine")

@@ -10,7 +10,7 @@ import dataclasses
 from pathlib import Path
 
 from .._io import Output
-from ..errors import ConfigError
+from ..errors import ConfigError, check_number
 from ..experiments import EXPERIMENTS
 from .args import key_value, number
 
@@ -28,12 +28,25 @@ def register(sub) -> None:
 
 
 def configure(module, quick: bool, seed: int, sets: list) -> object:
+    """The experiment's config with the ``--set`` values, each checked against its default: the
+    same type, and positive where the default is (a count, a budget, a size)."""
     cfg = module.quick(seed) if quick else module.Config(seed=seed)
-    names = {f.name for f in dataclasses.fields(cfg)}
+    fields = {f.name: f for f in dataclasses.fields(cfg)}
     for key, value in sets:
-        if key not in names:
-            raise ConfigError(f"the experiment has no setting {key!r}; its settings are {', '.join(sorted(names))}")
-        setattr(cfg, key, tuple(value) if isinstance(value, list) else value)
+        if key not in fields:
+            raise ConfigError(f"the experiment has no setting {key!r}; its settings are {', '.join(sorted(fields))}")
+        old = getattr(cfg, key)
+        if isinstance(old, (tuple, list)) and isinstance(value, list):
+            value = tuple(value)
+        elif isinstance(old, bool) or isinstance(value, bool):
+            if type(value) is not type(old):
+                raise ConfigError(f"--set {key} must be true or false, got {value!r}")
+        elif isinstance(old, (int, float)):
+            check_number(key, value, 0, None, integer=isinstance(old, int) and not isinstance(old, bool),
+                         strict_lo=old > 0, flag=f"--set {key}")
+        elif old is not None and type(value) is not type(old):
+            raise ConfigError(f"--set {key} must be like {old!r}, got {value!r}")
+        setattr(cfg, key, value)
     return cfg
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .._io import Output
 from ..errors import ConfigError
-from ..experiments.sweep import BUDGETS, SCENES, Config, parse_budget, run as run_sweep
+from ..experiments.sweep import BUDGETS, SCENES, Config, build_rows, parse_budget, run as run_sweep
 from .args import number
 
 
@@ -43,6 +43,7 @@ def run(args) -> int:
                  retry_failed=args.retry_failed)
     if cfg.executor == "dask" and not cfg.scheduler:
         raise ConfigError("--executor dask needs --scheduler ADDRESS (start one with 'dask scheduler')")
+    build_rows(cfg)                                          # refuses unknown scenes before anything is written
     out = Output(Path(args.out), "sweep", args.overwrite).claim()
     rows = run_sweep(cfg, out)
     failed = sum(r["status"] != "ok" for r in rows)

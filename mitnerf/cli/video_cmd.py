@@ -35,8 +35,8 @@ def parse_level(text: str) -> float | str:
         value = float(text)
     except ValueError:
         raise MitnerfError(f"--level must be a density (a number such as 10) or 'auto', got {text!r}") from None
-    if not value > 0:
-        raise MitnerfError(f"--level must be a positive density, got {text}; try 10 or 'auto'")
+    if not (value > 0 and value < float("inf")):
+        raise MitnerfError(f"--level must be a positive, finite density, got {text}; try 3 or 'auto'")
     return value
 
 

@@ -20,7 +20,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MitnerfError
+from .._io import available_memory
+from ..errors import ConfigError, MitnerfError
+
+PIXEL_BYTES = 32
+"""The least memory a pixel of a set of views costs once rendered (colour, alpha, depth, mask)."""
+
+
+def _check_pixels(n: int, H: int, W: int) -> None:
+    """Refuse up front views whose pixels cannot fit in memory (``--views`` x ``--resolution``
+    of a dataset, ``--frames`` x ``--resolution`` of a video), with the estimate."""
+    need = n * H * W * PIXEL_BYTES
+    if need < 1 << 30:
+        return
+    avail = available_memory()
+    if avail is not None and need > avail:
+        raise ConfigError(f"{n:,} views of {W} x {H} pixels ({n * H * W:,} pixels) need at least {need / 2**30:.1f} "
+                          f"GiB; this machine has {avail / 2**30:.1f} GiB available: use fewer views (or frames) "
+                          "or a lower resolution")
 
 
 @dataclass
@@ -49,6 +66,7 @@ class Cameras:
             raise MitnerfError(f"resolution must be at least 1 pixel, got {self.height}x{self.width}")
         if self.dim == 2 and self.width != 1:
             raise MitnerfError("2D cameras see 1D images: width must be 1")
+        _check_pixels(len(self.poses), self.height, self.width)
 
     @property
     def dim(self) -> int:

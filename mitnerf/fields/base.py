@@ -16,6 +16,8 @@ cannot, and are evaluated on all samples at once instead.
 
 from __future__ import annotations
 
+import dataclasses
+
 import drjit as dr
 
 from ..errors import ConfigError, check_number
@@ -23,9 +25,28 @@ from ..errors import ConfigError, check_number
 DENSITY_ACTIVATIONS = ("relu", "softplus", "trunc_exp")
 
 
+def check_types(cfg) -> None:
+    """Refuse a setting of the wrong type (a string where a number goes, a number where a
+    flag goes), read from the config's annotations: a checkpoint or ``--set`` could carry one."""
+    for f in dataclasses.fields(cfg):
+        v, kind = getattr(cfg, f.name), str(f.type)
+        if v is None and "None" in kind:
+            continue
+        if kind == "bool" and not isinstance(v, bool):
+            raise ConfigError(f"{f.name} must be true or false, got {v!r}")
+        if kind.startswith(("int", "float")):
+            check_number(f.name, v, integer=kind.startswith("int"))
+        if kind == "tuple" and not (isinstance(v, (tuple, list)) and all(
+                isinstance(e, (int, float)) and not isinstance(e, bool) for e in v)):
+            raise ConfigError(f"{f.name} must be a list of numbers, got {v!r}")
+        if kind == "str" and not isinstance(v, str):
+            raise ConfigError(f"{f.name} must be a string, got {v!r}")
+
+
 def check_config(cfg, **ranges) -> None:
     """Validate the settings every field config has (``dim``, ``density_activation``,
-    ``bound``) and the integer settings in ``ranges`` (``name=(lo, hi)``)."""
+    ``bound``), the types of all, and the integer settings in ``ranges`` (``name=(lo, hi)``)."""
+    check_types(cfg)
     if cfg.dim not in (2, 3):
         raise ConfigError(f"dim must be 2 or 3, got {cfg.dim!r}")
     if cfg.density_activation not in DENSITY_ACTIVATIONS:

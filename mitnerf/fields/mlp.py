@@ -34,7 +34,7 @@ import numpy as np
 from drjit.auto.ad import Float
 
 from ..errors import ConfigError
-from .base import check_config, density_activation, sigmoid
+from .base import check_config, check_types, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size, positional_encoding
 from .layers import LinearLayers, check_shapes, torch_default_init
 from .native import library, native_mlp
@@ -82,6 +82,7 @@ class NeRFConfig:
     """``coopvec``, ``tensor`` or ``auto`` (by width)."""
 
     def __post_init__(self):
+        check_types(self)
         if self.skip is None:
             self.skip = self.depth // 2 if self.depth >= 4 else -1
         check_config(self, pos_L=(0, 24), dir_L=(0, 12), depth=(1, 32), width=(2, 1024), skip=(-1, self.depth - 1))

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .ply import normalise
+
 YELLOW, BLACK, GREY = (0.98, 0.76, 0.04), (0.05, 0.05, 0.06), (0.62, 0.64, 0.66)
 DARK, RED, BLUE, WHITE = (0.24, 0.25, 0.27), (0.85, 0.08, 0.06), (0.08, 0.25, 0.72), (0.96, 0.96, 0.92)
 GLYPHS = {  # 3 x 5 letters, rows top to bottom
@@ -173,8 +175,6 @@ def paint(style: str, role: str, x: np.ndarray, y: np.ndarray, w: float, h: floa
 def brick_mesh() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(vertices [v, 3], faces [f, 3], uv [v, 2], texture [H, W, 3] uint8 sRGB)``, the toy
     centred, z up, scaled to radius 0.95."""
-    from .objects3d import normalise
-
     patches = bulldozer()
     cells = [(int(np.ceil(w * TEXELS_PER_UNIT)) + 2 * PAD, int(np.ceil(h * TEXELS_PER_UNIT)) + 2 * PAD)
              for _, _, _, w, h, _, _ in patches]

@@ -19,7 +19,7 @@ import numpy as np
 
 from .._io import atomic_write_bytes
 from .brick import brick_mesh
-from .ply import write_ply
+from .ply import normalise, write_ply
 
 # name -> (pyvista loader, up axis of the raw mesh, stripe direction, hue offset)
 PYVISTA_OBJECTS = {
@@ -27,17 +27,6 @@ PYVISTA_OBJECTS = {
     "airplane": ("load_airplane", 2, (1.0, 0.2, 0.4), 0.35),
     "nut": ("load_nut", 1, (0.2, 0.3, 1.0), 0.7),
 }
-
-
-def normalise(vertices: np.ndarray, up_axis: int) -> np.ndarray:
-    """Rotate ``up_axis`` onto +z, centre the bounding box, scale into the unit sphere."""
-    v = np.asarray(vertices, dtype=np.float64)
-    if up_axis == 1:      # (x, y, z) -> (x, -z, y): a proper rotation about x
-        v = np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1)
-    elif up_axis != 2:
-        raise ValueError(f"up_axis must be 1 (y) or 2 (z), got {up_axis}")
-    v = v - (v.max(0) + v.min(0)) / 2
-    return v / np.linalg.norm(v, axis=1).max() * 0.95
 
 
 def pattern_color(p: np.ndarray, stripe_dir, hue: float) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""A small binary PLY writer: positions, faces and optional per-vertex colour / UV.
+"""Meshes as files: a small binary PLY writer and reader (positions, faces, optional per-vertex
+colour and UV), and :func:`normalise`, which puts a mesh into the unit sphere.
 
 Mitsuba's PLY loader turns float ``r, g, b`` properties into the ``vertex_color``
 attribute and ``u, v`` into texture coordinates; VTK/pyvista read the same file.
@@ -58,3 +59,14 @@ def read_ply(path: str | Path) -> dict[str, np.ndarray]:
     if "u" in col:
         out["uv"] = np.stack([col["u"], col["v"]], 1)
     return out
+
+
+def normalise(vertices: np.ndarray, up_axis: int) -> np.ndarray:
+    """Rotate ``up_axis`` onto +z, centre the bounding box, scale into the unit sphere."""
+    v = np.asarray(vertices, dtype=np.float64)
+    if up_axis == 1:      # (x, y, z) -> (x, -z, y): a proper rotation about x
+        v = np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1)
+    elif up_axis != 2:
+        raise ValueError(f"up_axis must be 1 (y) or 2 (z), got {up_axis}")
+    v = v - (v.max(0) + v.min(0)) / 2
+    return v / np.linalg.norm(v, axis=1).max() * 0.95

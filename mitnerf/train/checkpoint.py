@@ -81,7 +81,7 @@ def read_manifest(path: str | Path) -> dict:
                               "pass the --out folder of `mitnerf fit`")
     try:
         m = json.loads(f.read_text())
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise CheckpointError(f"{f} is not valid JSON ({type(exc).__name__}); the checkpoint is corrupt: "
                               "refit it or restore a copy") from None
     if not isinstance(m, dict) or m.get("format") != FORMAT:
@@ -96,13 +96,30 @@ def read_manifest(path: str | Path) -> dict:
         raise CheckpointError(f"{path} has checkpoint format {version}, which this mitnerf no longer reads; refit it")
     try:
         assert m["dim"] in (2, 3) and isinstance(m["field"], str) and isinstance(m["arrays"], dict)
+        assert all(isinstance(v, dict) and all(isinstance(e, dict) for e in v.values()) for v in m["arrays"].values())
         for key in ("bound", "near", "far"):
-            assert isinstance(m[key], (int, float)) and math.isfinite(m[key])
+            assert isinstance(m[key], (int, float)) and not isinstance(m[key], bool) and math.isfinite(m[key])
         assert m["bound"] > 0 and 0 <= m["near"] < m["far"]
         m["recipe"] = Recipe.from_dict(m["recipe"])
         assert m["recipe"].model.field == m["field"] and m["recipe"].dim == m["dim"]
+        assert isinstance(m["recipe"].name, str)
+        loop = m["loop"]
+        assert isinstance(loop, dict)
+        step, train_time = loop["step"], loop["train_time"]
+        assert isinstance(step, int) and not isinstance(step, bool) and step >= 0
+        assert isinstance(train_time, (int, float)) and not isinstance(train_time, bool)
+        assert math.isfinite(train_time) and train_time >= 0
+        for key in ("dataset", "best", "metrics"):
+            assert isinstance(m.get(key, {}), dict)
+        for key in ("path", "mesh", "texture", "scene"):
+            assert isinstance(m.get("dataset", {}).get(key, ""), str)
     except (AssertionError, KeyError, TypeError, ValueError, AttributeError):
         raise CheckpointError(f"{f} is incomplete or was edited (a missing or malformed entry); refit it") from None
+    try:
+        m["recipe"].validate()
+    except (MitnerfError, TypeError, ValueError) as exc:
+        raise CheckpointError(f"{f} holds a recipe that cannot run ({exc}); the checkpoint was edited: "
+                              "refit it") from None
     return m
 
 
@@ -129,6 +146,9 @@ def read_arrays(path: Path, name: str, listed: dict) -> dict[str, np.ndarray]:
         if _sha(a) != meta.get("sha256"):
             raise CheckpointError(f"{f}: array {k!r} does not match its recorded SHA-256; the file changed after "
                                   "it was written: refit it or restore a copy")
+        if a.dtype.kind not in "fiu":
+            raise CheckpointError(f"{f}: array {k!r} holds {a.dtype} values, not numbers; the checkpoint was "
+                                  "edited: refit it")
         if a.dtype.kind == "f" and not np.isfinite(a).all():
             raise CheckpointError(f"{f}: array {k!r} contains NaN or infinity; this model cannot render: refit it")
     return arrays
@@ -157,6 +177,26 @@ def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str 
     except (MitnerfError, KeyError, ValueError, RuntimeError) as exc:
         raise CheckpointError(f"{path}: the weights do not fit the model its manifest describes ({exc}); "
                               "the checkpoint was edited: refit it") from None
+    shapes = {k: np.shape(v) for k, v in be.get_weights().items()}
+    unknown = sorted(set(weights) - set(shapes))
+    if unknown:
+        raise CheckpointError(f"{path}: weights.npz holds arrays that the model its manifest describes does not "
+                              f"have ({', '.join(unknown[:3])}); the checkpoint was edited: refit it")
+    best = {k[5:]: v for k, v in state.items() if k.startswith("best.")}
+    optim = {k[10:]: v for k, v in state.items() if k.startswith("optimizer.")}
+    other = sorted(k for k in state if not k.startswith(("best.", "optimizer.")))
+    if other:
+        raise CheckpointError(f"{path}: state.npz holds arrays that are neither best weights nor optimizer state "
+                              f"({', '.join(other[:3])}); the checkpoint was edited: refit it")
+    if best and (set(best) != set(weights) or any(np.shape(best[k]) != shapes[k] for k in weights)):
+        raise CheckpointError(f"{path}: state.npz holds best weights that do not fit the model its manifest "
+                              "describes; the checkpoint was edited: refit it")
+    moments = {k[:-2]: v for k, v in optim.items() if k.endswith(".m")}     # names are engine-specific
+    if optim and (len(optim) != 3 * len(moments) or sum(v.size for v in moments.values()) != be.n_params() or not all(
+            f"{k}.v" in optim and optim[f"{k}.v"].shape == v.shape and f"{k}.t" in optim and optim[f"{k}.t"].size == 1
+            for k, v in moments.items())):
+        raise CheckpointError(f"{path}: state.npz holds optimizer state that does not fit the model its manifest "
+                              "describes (Adam keeps two moments per parameter); the checkpoint was edited: refit it")
     try:
         history = json.loads((path / "history.json").read_text())
         assert isinstance(history, dict)
@@ -165,8 +205,7 @@ def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str 
     loop = LoopState(int(m["loop"].get("step", 0)), float(m["loop"].get("train_time", 0.0)),
                      {**new_history(), **history})
     run = Run(be, recipe, dict(m.get("dataset") or {}), loop, dict(m.get("best") or {}))
-    best = {k[5:]: v for k, v in state.items() if k.startswith("best.")}
-    resume = {"weights": weights, "optimizer": {k[10:]: v for k, v in state.items() if k.startswith("optimizer.")},
+    resume = {"weights": weights, "optimizer": optim,
               "state": loop, "best": run.best, "best_weights": best or None, "backend": m["backend"],
               "metrics": m.get("metrics", {})}
     return run, resume

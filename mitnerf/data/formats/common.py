@@ -15,19 +15,24 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import warnings
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from ..._io import available_memory
 from ...errors import DataError
 
 META = "mitnerf.json"
 MAX_SIDE = 16384
 """Largest image side mitnerf accepts (pixels)."""
+PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+"""The last 12 bytes of every complete PNG file (its empty IEND chunk)."""
 BYTES_PER_PIXEL = 96
 """Memory a training pixel costs: colour, coverage, depth, mask, its ray, and device copies."""
 
@@ -51,7 +56,7 @@ def read_json(path: Path) -> dict:
     return data
 
 
-_TYPES = {dict: "an object", list: "a list", str: "a string"}
+_TYPES = {dict: "an object", list: "a list", str: "a string", (int, float): "a number"}
 
 
 def get(obj: dict, key: str, kind: type, where: str, default=...):
@@ -62,19 +67,20 @@ def get(obj: dict, key: str, kind: type, where: str, default=...):
         raise DataError(f"{where} lacks {key!r}; add it")
     value = obj[key]
     if not isinstance(value, kind):
-        raise DataError(f"{where}: {key!r} must be {_TYPES.get(kind, kind.__name__)}, got {json.dumps(value)[:40]}")
+        raise DataError(f"{where}: {key!r} must be {_TYPES.get(kind) or getattr(kind, '__name__', kind)}, "
+                        f"got {json.dumps(value)[:40]}; fix the file")
     return value
 
 
 def number(value, what: str, lo: float | None = None, hi: float | None = None, strict_lo: bool = True) -> float:
     """A real number (not a bool, not a string), finite, within ``(lo, hi]``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise DataError(f"{what} must be a number, got {json.dumps(value, default=str)[:40]}")
+        raise DataError(f"{what} must be a number, got {json.dumps(value, default=str)[:40]}; fix the file")
     v = float(value)
     if not math.isfinite(v):
-        raise DataError(f"{what} must be finite, got {v}")
+        raise DataError(f"{what} must be finite, got {v}; fix the file")
     if lo is not None and (v <= lo if strict_lo else v < lo):
-        raise DataError(f"{what} must be {'>' if strict_lo else '>='} {lo:g}, got {v:g}")
+        raise DataError(f"{what} must be {'>' if strict_lo else '>='} {lo:g}, got {v:g}; fix the file")
     if hi is not None and v > hi:
         raise DataError(f"{what} = {v:g} is implausibly large (at most {hi:g}); check its unit")
     return v
@@ -83,7 +89,7 @@ def number(value, what: str, lo: float | None = None, hi: float | None = None, s
 def integer(value, what: str, lo: int = 1, hi: int = MAX_SIDE) -> int:
     v = number(value, what, lo, hi, strict_lo=False)
     if not v.is_integer():
-        raise DataError(f"{what} must be a whole number, got {v:g}")
+        raise DataError(f"{what} must be a whole number, got {v:g}; fix the file")
     return int(v)
 
 
@@ -92,8 +98,9 @@ def matrices(frames: list, key: str, size: int, where: str) -> np.ndarray:
     out = np.empty((len(frames), size, size))
     for i, f in enumerate(frames):
         m = f.get(key) if isinstance(f, dict) else None
-        try:
-            if m is None or any(isinstance(v, bool) for row in m for v in row):
+        try:        # lists of real numbers only: not "0.5", true or null (numpy would convert them)
+            if not isinstance(m, list) or not all(isinstance(row, list) and all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in row) for row in m):
                 raise TypeError
             a = np.array(m, dtype=np.float64)
         except (TypeError, ValueError):
@@ -125,7 +132,7 @@ def check_poses(poses: np.ndarray, where: str) -> None:
 
 def check_focal(focal: float, pixels: int, where: str) -> float:
     """A focal length in pixels for an image ``pixels`` wide: a field of view in (0.05, 179) degrees."""
-    f = number(focal, f"{where}: the focal length")
+    f = number(focal, f"{where}: the focal length", 0)
     fov = math.degrees(2 * math.atan(pixels / (2 * f)))
     if not 0.05 < fov < 179:
         raise DataError(f"{where}: focal length {f:g} px gives a {fov:.3g} degree field of view at {pixels} px; "
@@ -133,12 +140,28 @@ def check_focal(focal: float, pixels: int, where: str) -> float:
     return f
 
 
+@contextlib.contextmanager
+def _own_size_limits():
+    """PIL's decompression-bomb check (a warning on stderr, or an error that hides the size)
+    off: mitnerf refuses oversized views itself, with their size (``MAX_SIDE``, :func:`check_memory`)."""
+    from PIL import Image
+
+    old = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            yield
+    finally:
+        Image.MAX_IMAGE_PIXELS = old
+
+
 def image_size(path: Path) -> tuple[int, int]:
     """``(H, W)`` from the image header, without decoding it; refuses oversized views."""
     from PIL import Image
 
     try:
-        with Image.open(path) as im:
+        with _own_size_limits(), Image.open(path) as im:
             w, h = im.size
     except FileNotFoundError:
         raise DataError(f"image {path} is missing; every frame needs its image") from None
@@ -154,9 +177,20 @@ def read_image(path: Path) -> np.ndarray:
     """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``."""
     import imageio.v3 as iio
 
+    from PIL import Image
+
     image_size(path)
     try:
-        img = iio.imread(path)
+        with _own_size_limits():
+            with Image.open(path) as im:
+                im.verify()            # every chunk's checksum and the end of the file: a cut PNG is refused
+                png = im.format == "PNG"
+            if png:                    # verify() stops at the end chunk's name: check that all of it is there
+                with open(path, "rb") as f:
+                    f.seek(max(0, os.fstat(f.fileno()).st_size - 4096))
+                    if PNG_END not in f.read():
+                        raise EOFError("no end chunk")
+            img = iio.imread(path)
     except Exception as exc:  # noqa: BLE001 - imageio raises many types for corrupt files
         raise DataError(f"cannot decode image {path} ({type(exc).__name__}: truncated or corrupt); "
                         "replace the file") from None
@@ -192,6 +226,30 @@ def read_npz(path: Path, where: str | None = None) -> dict[str, np.ndarray]:
         raise DataError(f"{where or path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
 
 
+def npz_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
+    """``{name: (shape, dtype)}`` of the arrays of an ``.npz`` file, from their headers only
+    (nothing is loaded: a file that claims huge arrays is refused before it fills memory)."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            out = {}
+            for info in z.infolist():
+                if not info.filename.endswith(".npy"):
+                    continue
+                with z.open(info) as f:
+                    version = np.lib.format.read_magic(f)
+                    read = {(1, 0): np.lib.format.read_array_header_1_0,
+                            (2, 0): np.lib.format.read_array_header_2_0}.get(version)
+                    if read is None:
+                        raise ValueError(f"npy format {version}")
+                    shape, _, dtype = read(f)
+                out[info.filename[:-4]] = (shape, dtype)
+            return out
+    except FileNotFoundError:
+        raise DataError(f"{path} is missing; restore it or drop the frame") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError, SyntaxError, TypeError) as exc:
+        raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+
+
 def read_npy(path: Path, shape: tuple, where: str) -> np.ndarray:
     """A float array of ``shape`` from an ``.npy`` file, never unpickled."""
     try:
@@ -201,18 +259,19 @@ def read_npy(path: Path, shape: tuple, where: str) -> np.ndarray:
     except (OSError, ValueError, EOFError) as exc:
         raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
     if not isinstance(a, np.ndarray) or a.dtype.kind not in "uif" or a.size != int(np.prod(shape)):
-        raise DataError(f"{where}: {path.name} holds {getattr(a, 'shape', '?')} values, expected {shape}")
-    return a.astype(np.float32).reshape(shape)
+        raise DataError(f"{where}: {path.name} holds {getattr(a, 'shape', '?')} {getattr(a, 'dtype', '')} values, "
+                        f"expected {shape} numbers; regenerate the file")
+    a = a.astype(np.float32).reshape(shape)
+    if not np.isfinite(a).all():
+        raise DataError(f"{where}: {path.name} contains NaN or infinity; regenerate the file")
+    return a
 
 
 def check_memory(n_pixels: int, where: str) -> None:
     """Refuse, before loading, a dataset whose pixels would not fit in the machine's memory."""
     need = n_pixels * BYTES_PER_PIXEL
-    try:
-        avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError):
-        return
-    if need > avail:
+    avail = available_memory()
+    if avail is not None and need > avail:
         raise DataError(f"{where} has {n_pixels:,} pixels, which need about {need / 2**30:.1f} GiB to train on; "
                         f"this machine has {avail / 2**30:.1f} GiB free: use fewer or smaller views")
 
@@ -236,10 +295,16 @@ def read_meta(folder: Path) -> dict:
         raise DataError(f"{path}: near ({meta['near']}) must be smaller than far ({meta['far']}); fix the file")
     if "polygon" in meta:
         try:
+            assert all(isinstance(p, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p)
+                       for p in meta["polygon"])             # numbers, not "0.5" (numpy would convert it)
             pts = np.asarray(meta["polygon"], np.float64)
             assert pts.ndim == 2 and pts.shape[1] == 2 and len(pts) >= 3 and np.isfinite(pts).all()
         except (TypeError, ValueError, AssertionError):
             raise DataError(f"{path}: 'polygon' must be a list of [x, y] points; fix or delete the key") from None
+    for key in ("scene", "kind", "format", "mesh", "texture"):
+        if key in meta and not isinstance(meta[key], str):
+            raise DataError(f"{path}: {key!r} must be a string, got {json.dumps(meta[key], default=str)[:40]}; "
+                            "fix or delete the key")
     if "background" in meta:
         bg = meta["background"]
         if not (isinstance(bg, list) and len(bg) == 3):

@@ -56,11 +56,14 @@ def write_nerf2d(dataset: Dataset, folder: Path) -> None:
     write_meta(folder, dataset, "nerf2d")
 
 
-def _column(a: np.ndarray, H: int, what: str) -> np.ndarray:
-    """A per-pixel array of an ``H``-pixel view (``H``, ``H x 1`` or ``1 x H``) as ``[H, 1]``."""
-    if a.size != H or a.dtype.kind not in "uifb":
-        raise DataError(f"{what} holds {a.shape} {a.dtype} values, expected {H} numbers (one per pixel)")
-    return a.reshape(H, 1)
+def _column(a: np.ndarray, H: int, what: str, channels: int | None = None) -> np.ndarray:
+    """A per-pixel array of an ``H``-pixel view (``H``, ``H x 1`` or ``1 x H``) as ``[H, 1]``
+    (``[H, 1, channels]`` with ``channels``)."""
+    c = channels or 1
+    if a.size != H * c or a.dtype.kind not in "uifb":
+        raise DataError(f"{what} holds {a.shape} {a.dtype} values, expected {H * c} numbers ({c} per pixel); "
+                        "regenerate the file")
+    return a.reshape((H, 1, c) if channels else (H, 1))
 
 
 def _read_split(d: Path) -> Split:
@@ -90,8 +93,17 @@ def _read_split(d: Path) -> Split:
     color, alpha = img[..., :3], img[..., 3]
     depth = mask = linear = None
     npz = [d / f"cam-{i}.npz" for i in range(n)]
-    if all(p.exists() for p in npz):
+    have = [p.exists() for p in npz]
+    if any(have) and not all(have):
+        raise DataError(f"{d}: {npz[have.index(False)].name} is missing while other views have their .npz; "
+                        "restore it (or delete them all)")
+    if all(have):
         files = [read_npz(p) for p in npz]
+        for key in ("depth_map", "rgb_linear", "alpha", "mask"):
+            present = [key in f for f in files]
+            if any(present) and not all(present):
+                raise DataError(f"{d}: {npz[present.index(False)].name} lacks {key!r}, which the other views' "
+                                ".npz files hold; regenerate the dataset")
         if all("depth_map" in f for f in files):
             raw = np.stack([_column(f["depth_map"], H, str(p)) for f, p in zip(files, npz)]).astype(np.float32)
             if not np.isfinite(raw).all():
@@ -100,10 +112,12 @@ def _read_split(d: Path) -> Split:
             mask = (np.stack([_column(f["mask"], H, str(p)) for f, p in zip(files, npz)]).astype(bool)
                     if all("mask" in f for f in files) else np.isfinite(depth))
         if all("rgb_linear" in f and "alpha" in f for f in files):
-            linear = np.stack([f["rgb_linear"] for f in files]).astype(np.float32)
+            linear = np.stack([_column(f["rgb_linear"], H, str(p), 3) for f, p in zip(files, npz)]).astype(np.float32)
             alpha = np.stack([_column(f["alpha"], H, str(p)) for f, p in zip(files, npz)]).astype(np.float32)
             if linear.shape != (n, H, 1, 3) or not (np.isfinite(linear).all() and np.isfinite(alpha).all()):
                 raise DataError(f"{d}: rgb_linear must be finite H x 1 x 3 arrays; regenerate the dataset")
+            if alpha.min() < 0 or alpha.max() > 1:
+                raise DataError(f"{d}: an npz file's alpha is outside [0, 1]; regenerate the dataset")
             color = display_color(linear, alpha)
     return Split(Cameras(poses, focal, H, 1), color.astype(np.float32), alpha.astype(np.float32), depth, mask, linear)
 

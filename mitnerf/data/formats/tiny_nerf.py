@@ -17,11 +17,18 @@ import numpy as np
 from ...errors import DataError
 from ..cameras import Cameras
 from ..dataset import Dataset, Split
-from .common import check_focal, check_memory, check_poses, integer, read_npz
+from .common import MAX_SIDE, check_focal, check_memory, check_poses, integer, npz_shapes, read_npz
 
 
 def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dataset:
     path = Path(path)
+    shape = npz_shapes(path).get("images", ((),))[0]
+    if len(shape) == 4:                 # refuse huge images from the header, before loading them
+        n, H, W = shape[:3]
+        if max(H, W) > MAX_SIDE:
+            raise DataError(f"{path}: views of {H} x {W} pixels are too large (at most {MAX_SIDE} per side); "
+                            "downsample them")
+        check_memory(n * H * W, str(path))
     data = read_npz(path)
     missing = [k for k in ("images", "poses", "focal") if k not in data]
     if missing:
@@ -34,16 +41,17 @@ def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dat
     if focal.size != 1 or focal.dtype.kind not in "if":
         raise DataError(f"{path}: 'focal' must be one number (pixels), got {focal.shape} {focal.dtype}")
     n, H, W = images.shape[:3]
-    if max(H, W) > 16384:
+    if max(H, W) > MAX_SIDE:
         raise DataError(f"{path}: views of {H} x {W} pixels are too large; downsample them")
     if n < 3:
         raise DataError(f"{path} has {n} frames; need at least 3 (train, val, test)")
     check_memory(n * H * W, str(path))
     check_poses(poses.astype(np.float64), str(path))
     focal = check_focal(float(focal.reshape(-1)[0]), W, str(path))
-    n_train = integer(data["n_train"].reshape(-1)[0], f"{path}: n_train", 1, n - 1) if "n_train" in data \
+    n_train = integer(_one(data["n_train"], path, "n_train"), f"{path}: n_train", 1, n - 1) if "n_train" in data \
         else min(100, n - 2)
-    n_val = integer(data["n_val"].reshape(-1)[0], f"{path}: n_val", 0, n - n_train - 1) if "n_val" in data else 1
+    n_val = integer(_one(data["n_val"], path, "n_val"), f"{path}: n_val", 0, n - n_train - 1) if "n_val" in data \
+        else 1
     img = images[..., :3].astype(np.float32) / (255.0 if images.dtype == np.uint8 else 1.0)
     if not np.isfinite(img).all():
         raise DataError(f"{path}: 'images' contains NaN or infinity; replace the file")
@@ -53,6 +61,12 @@ def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dat
         color = np.clip(img[sl], 0, 1)
         splits[name] = Split(Cameras(poses[sl], focal, H, W), color, np.ones(color.shape[:3], np.float32))
     return Dataset(splits, near, far, {"format": "tiny_nerf", "scene": path.stem, "background": [0.0] * 3})
+
+
+def _one(a: np.ndarray, path: Path, key: str):
+    if a.size != 1:
+        raise DataError(f"{path}: {key!r} must be one number, got an array of shape {a.shape}; fix the file")
+    return a.reshape(-1)[0]
 
 
 def tiny_nerf_bytes(dataset: Dataset) -> bytes:

@@ -150,11 +150,17 @@ def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int
             if get_(k) is not None and number(get_(k), f"{where}: {k}", strict_lo=False) != 0:
                 raise DataError(f"{where}: frame {i} has lens distortion ({k} = {get_(k)}); mitnerf reads pinhole "
                                 "cameras only: undistort the images first")
+        ang = None
+        if get_("camera_angle_x") is not None:
+            ang = number(get_("camera_angle_x"), f"{where}: camera_angle_x", 0, 3.14)
         if get_("fl_x") is not None:
             fx = number(get_("fl_x"), f"{where}: fl_x")
             fy = number(get_("fl_y") if get_("fl_y") is not None else fx, f"{where}: fl_y")
-        elif get_("camera_angle_x") is not None:
-            ang = number(get_("camera_angle_x"), f"{where}: camera_angle_x", 0, 3.14)
+            if ang is not None and abs(2 * np.arctan(0.5 * W / fx) - ang) > 1e-3 * ang:
+                # the original NeRF and nerfstudio's Blender loader read camera_angle_x, instant-ngp fl_x
+                raise DataError(f"{where}: camera_angle_x = {ang:g} rad and fl_x = {fx:g} px disagree for images "
+                                f"{W} px wide (fl_x gives {2 * np.arctan(0.5 * W / fx):.6g} rad); fix or remove one")
+        elif ang is not None:
             fx = fy = 0.5 * W / np.tan(0.5 * ang)
         else:
             raise DataError(f"{where} gives neither 'fl_x' nor 'camera_angle_x'; add the focal length")
@@ -171,6 +177,16 @@ def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int
     if max(values) - min(values) > 1e-3 * max(values):
         raise DataError(f"{where}: frames have different focal lengths; mitnerf needs one camera per split")
     return check_focal(values[0], H if dim == 2 else W, where)
+
+
+def _plane(img: np.ndarray, H: int, W: int, path: Path) -> np.ndarray:
+    """A one-channel image (a depth map or mask) of the views' size ``H x W``."""
+    if img.ndim == 3:
+        img = img[..., 0]
+    if img.shape != (H, W):
+        raise DataError(f"{path} is {img.shape[1]} x {img.shape[0]} pixels but the views are {W} x {H}; "
+                        "depth maps and masks need the size of their view")
+    return img
 
 
 def _path(root: Path, value, where: str, suffix: str = ".png") -> Path:
@@ -200,7 +216,7 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_kind:
     cams = Cameras(pose_3d_to_2d(poses) if dim == 2 else poses, focal, H, W)
     depth = mask = linear = None
     if all(isinstance(f, dict) and "depth_file_path" in f for f in frames):
-        raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy" else read_image(p).reshape(H, W)
+        raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy" else _plane(read_image(p), H, W, p)
                         for p in (_path(root, f["depth_file_path"], where, ".npy") for f in frames)])
         if not np.isfinite(raw).all() or (raw < 0).any():
             raise DataError(f"{where}: depth maps must be finite and >= 0 (0 on a miss)")
@@ -211,12 +227,18 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_kind:
         depth = np.where(raw > 0, raw, np.inf).astype(np.float32)
         mask = np.isfinite(depth)
     if all(isinstance(f, dict) and "mask_path" in f for f in frames):
-        mask = np.stack([as_rgba(read_image(_path(root, f["mask_path"], where)))[..., 0].reshape(H, W) > 0.5
-                         for f in frames])
+        mask = np.stack([_plane(as_rgba(read_image(p))[..., 0], H, W, p) > 0.5
+                         for p in (_path(root, f["mask_path"], where) for f in frames)])
     lpaths = [p.with_name(p.stem + "_linear.npy") for p in paths]
-    if all(p.exists() for p in lpaths):
+    have = [p.exists() for p in lpaths]
+    if any(have) and not all(have):
+        raise DataError(f"{where}: {lpaths[have.index(False)]} is missing while other frames have their "
+                        "_linear.npy; restore it (or delete them all)")
+    if all(have):
         lin = np.stack([read_npy(p, (H, W, 4), where) for p in lpaths])
         linear, a = lin[..., :3], lin[..., 3]
+        if a.min() < 0 or a.max() > 1:
+            raise DataError(f"{where}: a _linear.npy file holds alpha outside [0, 1]; regenerate the dataset")
         color = display_color(linear, a)
     return Split(cams, color.astype(np.float32), a.astype(np.float32), depth, mask, linear)
 
@@ -249,9 +271,16 @@ def read_transforms(path: str | Path) -> Dataset:
         for i, f in enumerate(frames):
             if not isinstance(f, dict):
                 raise DataError(f"{where}: frame {i} must be an object with 'file_path' and 'transform_matrix'")
+            _path(path, f.get("file_path"), f"{where}: frame {i}")          # a non-empty string
         lists = {s: get(header, f"{s}_filenames", list, where, None) for s in SPLITS}
+        names = {f["file_path"] for f in frames}
+        for s, v in lists.items():
+            for name in v or []:
+                if not (isinstance(name, str) and name in names):   # nerfstudio refuses these too
+                    raise DataError(f"{where}: {s}_filenames lists {json.dumps(name)[:60]}, the file_path of no "
+                                    "frame; fix the list or add the frame")
         if any(v for v in lists.values()):
-            pick = {s: [f for f in frames if f.get("file_path") in set(map(str, v or []))] for s, v in lists.items()}
+            pick = {s: [f for f in frames if f["file_path"] in set(v or [])] for s, v in lists.items()}
         else:
             pick = {"train": [f for i, f in enumerate(frames) if i % 8], "test": frames[::8]}
         kind = _depth_kind(header, where)
