@@ -4,11 +4,11 @@ Dr.Jit stays the engine (the parameters, the encodings, the volume integral, the
 autodiff graph, Adam); only the MLP of :mod:`.mlp` is delegated. ``native_mlp.c`` pushes
 tiles of samples through every layer and back while they stay in the caches, with
 register-blocked matrix products written with GCC's vector extensions (AVX-512 or AVX2,
-whatever ``-march=native`` finds), two OpenMP threads, and per-thread weight gradients
-reduced once. The backward pass recomputes the forward per tile instead of storing
+whatever ``-march=native`` finds), two POSIX threads that block rather than spin between
+calls, and per-thread weight gradients reduced once. The backward pass recomputes the forward per tile instead of storing
 activations.
 
-The source is compiled on first use (``cc -O3 -march=native -fopenmp``) into
+The source is compiled on first use (``cc -O3 -march=native -pthread``) into
 ``$MITNERF_CACHE/native/`` under a name that hashes the source, the compiler and the
 CPU's flags, so machines sharing a cache never load each other's builds.
 :func:`library` returns ``None`` when no compiler works, and the MLP then runs on
@@ -21,6 +21,7 @@ weight ``[out, in]`` then its bias), the outputs raw (activations stay in Dr.Jit
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import hashlib
@@ -62,7 +63,7 @@ def library():
     key = hashlib.sha1(SOURCE.read_bytes() + version.encode() + _cpu_flags().encode()).hexdigest()[:16]
 
     def build(tmp: Path) -> None:
-        subprocess.run([cc, "-O3", "-march=native", "-fopenmp", "-shared", "-fPIC", str(SOURCE), "-o",
+        subprocess.run([cc, "-O3", "-march=native", "-pthread", "-shared", "-fPIC", str(SOURCE), "-o",
                         str(tmp / "libmlp.so")], check=True, capture_output=True, timeout=300)
 
     try:
@@ -87,6 +88,19 @@ def _host(x: Float) -> np.ndarray:
     return np.asarray(x)
 
 
+@contextlib.contextmanager
+def _cores_to_the_kernel():
+    """Dr.Jit's idle workers keep spinning for some milliseconds after a launch; on 2 cores they
+    halve the kernel's speed (``benchmarks/step_time.py``). Shrinking the pool to one thread while
+    the kernel runs parks them; the call is cheap next to the kernel."""
+    n = dr.thread_count()
+    dr.set_thread_count(1)
+    try:
+        yield
+    finally:
+        dr.set_thread_count(n)
+
+
 class NativeMLP(dr.CustomOp):
     """``dr.custom(NativeMLP, weights, X, Dd, arch, need)`` -> ``(raw sigma [M], raw rgb 3 x [M])``.
 
@@ -102,7 +116,10 @@ class NativeMLP(dr.CustomOp):
         self.Dd = _host(self.keep[2]) if Dd else None
         self.dims = (*arch, len(X), len(Dd))
         sigma, rgb = np.empty(M, np.float32), np.empty(3 * M, np.float32)
-        if library().mlp_forward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), M, _ptr(sigma), _ptr(rgb)):
+        with _cores_to_the_kernel():
+            failed = library().mlp_forward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), M, _ptr(sigma),
+                                           _ptr(rgb))
+        if failed:
             raise RuntimeError(f"the native MLP does not support {self.dims}")
         return Float(sigma), [Float(rgb[k::3]) for k in range(3)]
 
@@ -115,8 +132,9 @@ class NativeMLP(dr.CustomOp):
         C, Cd = self.dims[3], self.dims[4]
         dX = np.empty(M * C, np.float32) if self.need[0] else None
         dD = np.empty(M * Cd, np.float32) if self.need[1] and Cd else None
-        library().mlp_backward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), M, _ptr(ds), _ptr(dc),
-                               _ptr(grad), _ptr(dX), _ptr(dD))
+        with _cores_to_the_kernel():
+            library().mlp_backward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), M, _ptr(ds), _ptr(dc),
+                                   _ptr(grad), _ptr(dX), _ptr(dD))
         self.set_grad_in("weights", Float(grad))
         if dX is not None:
             self.set_grad_in("X", [Float(dX[c::C]) for c in range(C)])

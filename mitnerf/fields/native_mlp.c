@@ -1,7 +1,7 @@
 /*
  * mlp.c -- fused CPU kernel for the NeRF MLP (forward + recomputing backward).
  *
- * Build: gcc -O3 -march=native -fopenmp -shared -fPIC mlp.c -o libmlp.so
+ * Build: gcc -O3 -march=native -pthread -shared -fPIC mlp.c -o libmlp.so
  * Works with AVX-512 (VL=16 floats) or AVX2/FMA (VL=8 floats); selected at
  * compile time from -march.
  *
@@ -62,7 +62,8 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#include <omp.h>
+#include <pthread.h>
+#include <time.h>
 
 #if defined(__AVX512F__)
 #define VL 16
@@ -387,13 +388,83 @@ static void init_tables(void) {
 
 #define MAXTHP 64
 
+/* ------------------------------------------------------------------------ */
+/* Threads: plain POSIX threads, created per call and joined before it returns, with blocking
+   (futex) barriers. Nothing keeps spinning after a call, so the caller's own thread pool gets
+   the cores back at once. */
+static __thread int cur_tid = 0;
+typedef struct team {
+    void (*body)(struct team*, int tid);
+    void* ctx;
+    int nth;          /* threads taking part, the caller included */
+    int go;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    pthread_barrier_t bar;
+} team_t;
+typedef struct { team_t* team; int tid; } member_t;
+
+static void* team_member(void* a) {
+    member_t* m = a;
+    team_t* t = m->team;
+    pthread_mutex_lock(&t->mu);
+    while (!t->go) pthread_cond_wait(&t->cv, &t->mu);
+    pthread_mutex_unlock(&t->mu);
+    if (m->tid < t->nth) {
+        cur_tid = m->tid;
+        t->body(t, m->tid);
+    }
+    return NULL;
+}
+
+/* run body(team, tid) on `want` threads (fewer if the system refuses to start more) */
+static void team_run(void (*body)(team_t*, int), void* ctx, int want) {
+    team_t t;
+    memset(&t, 0, sizeof t);
+    t.body = body; t.ctx = ctx;
+    pthread_mutex_init(&t.mu, NULL);
+    pthread_cond_init(&t.cv, NULL);
+    pthread_t th[MAXTHP];
+    member_t mem[MAXTHP];
+    int n = 1;
+    for (; n < want; n++) {
+        mem[n] = (member_t){&t, n};
+        if (pthread_create(&th[n], NULL, team_member, &mem[n])) break;
+    }
+    t.nth = n;
+    pthread_barrier_init(&t.bar, NULL, (unsigned)n);
+    pthread_mutex_lock(&t.mu);
+    t.go = 1;
+    pthread_cond_broadcast(&t.cv);
+    pthread_mutex_unlock(&t.mu);
+    cur_tid = 0;
+    body(&t, 0);
+    for (int i = 1; i < n; i++) pthread_join(th[i], NULL);
+    pthread_barrier_destroy(&t.bar);
+    pthread_cond_destroy(&t.cv);
+    pthread_mutex_destroy(&t.mu);
+}
+
+static void team_barrier(team_t* t) {
+    if (t->nth > 1) pthread_barrier_wait(&t->bar);
+}
+
+/* units 0..n-1 of a loop, handed out one at a time through `counter` (zero at the start, one
+   counter per loop); every thread returns once all units are done */
+static void team_units(team_t* t, long* counter, int n, void (*f)(const void*, int), const void* arg) {
+    for (long u = __atomic_fetch_add(counter, 1, __ATOMIC_RELAXED); u < n;
+         u = __atomic_fetch_add(counter, 1, __ATOMIC_RELAXED))
+        f(arg, (int)u);
+    team_barrier(t);
+}
+
 #ifdef MLP_PROFILE
 #include <x86intrin.h>
 static double prof_cyc[MAXTHP][16], prof_fl[MAXTHP][16];
 static __thread int prof_phase = 0;
 #define PHASE(p) (prof_phase = (p))
 #define PSTART unsigned long long _t0 = __rdtsc();
-#define PEND(fl) { int _tid = omp_get_thread_num(); prof_cyc[_tid][prof_phase] += (double)(__rdtsc() - _t0); prof_fl[_tid][prof_phase] += (fl); }
+#define PEND(fl) { int _tid = cur_tid; prof_cyc[_tid][prof_phase] += (double)(__rdtsc() - _t0); prof_fl[_tid][prof_phase] += (fl); }
 void mlp_prof_get(double* cyc, double* fl) { for (int p = 0; p < 16; p++) { cyc[p] = prof_cyc[0][p] + prof_cyc[1][p]; fl[p] = prof_fl[0][p] + prof_fl[1][p]; } memset(prof_cyc, 0, sizeof prof_cyc); memset(prof_fl, 0, sizeof prof_fl); }
 #else
 #define PHASE(p)
@@ -730,7 +801,7 @@ void mlp_set_tiles(int tile_fwd, int tile_bwd) {
 }
 
 /* tile > 0: rows per tile for forward and backward (rounded up to a multiple of 48); 0: automatic;
-   nthreads > 0: OpenMP threads; rowr_cN > 0: row-block height of both kernels for N column vectors */
+   nthreads > 0: threads; rowr_cN > 0: row-block height of both kernels for N column vectors */
 void mlp_set_options(int tile, int nthreads, int rowr_c1, int rowr_c2, int rowr_c3, int rowr_c4) {
     if (tile > 0) opt_tile_fwd = opt_tile_bwd = (int)rup(tile, TMULT);
     if (tile == 0) opt_tile_fwd = opt_tile_bwd = 0;
@@ -1021,68 +1092,155 @@ static void fill_dtile(float* dst, const float* src, long rows, long T, int Cdir
 }
 
 /* ------------------------------------------------------------------------ */
+/* one call's arguments and shared state, seen by every thread of its team */
+typedef struct {
+    plan_t P;
+    const float *params, *X, *Dd, *d_sigma, *d_rgb;
+    float *w, *out_sigma, *out_rgb, *grad, *dX, *dDd;
+    long M, T, ntiles;
+    size_t nscr;
+    int need_prep, want_dx, want_dd, nth;
+    long prep_counter, tile_counter, unpack_counter;
+    float* gthr[MAXTH];
+} call_t;
+
+static void prep_one(const void* a, int u) {
+    const call_t* c = a;
+    prep_unit(&c->P, c->params, c->w, u);
+}
+static void unpack_one(const void* a, int u) {
+    const call_t* c = a;
+    unpack_unit(&c->P, c->gthr, c->nth, c->grad, u);
+}
+
+static void forward_body(team_t* team, int tid) {
+    call_t* c = team->ctx;
+    const plan_t* P = &c->P;
+    const float* w = c->w;
+    const long M = c->M, T = c->T, ntiles = c->ntiles;
+    const int C_in = P->Cin, C_dir = P->Cdir;
+    if (c->need_prep) team_units(team, &c->prep_counter, P->D + 1, prep_one, c);
+    scr_t S;
+    layout_scratch(P, T, 0, 0, &S, thread_scratch(tid, c->nscr));
+    long it = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
+    pf.calls = 0;
+    while (it < ntiles) {
+        const long nx = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
+        pf_begin_tile();
+        if (nx < ntiles) {
+            const long n0 = nx * T, nr = (M - n0 < T) ? M - n0 : T;
+            pf_add(c->X + n0 * C_in, nr * C_in * 4);
+            if (C_dir > 0) pf_add(c->Dd + n0 * C_dir, nr * C_dir * 4);
+        }
+        pf_plan();
+        const long t0 = it * T;
+        const long rows = (M - t0 < T) ? M - t0 : T;
+        const long Te = rup(rows, TMULT); /* rows processed (zero padded), multiple of TMULT */
+        const float* Xt = c->X + t0 * C_in;
+        const float* Dt = C_dir > 0 ? c->Dd + t0 * C_dir : NULL;
+        if (rows < Te) {
+            copy_rows_pad(S.Xp, Xt, rows, Te, C_in);
+            Xt = S.Xp;
+        }
+        { PHASE(14); PSTART fill_dtile(S.Dp, Dt, rows, Te, C_dir, P->Cdp); PEND(0) }
+        Dt = S.Dp;
+        { PSTART
+        tile_forward(P, w, Xt, Dt, S.H, 0, S.C0, Te);
+        PHASE(11); PEND(0) }
+        const float* hl = S.H[(P->D - 1) & 1];
+        {
+        PHASE(4);
+        PSTART
+        narrow_fwd(hl, P->Wp, P->Wp / VL, w + P->ows, P->Wp, w + P->obs, 1, S.so, 1, Te);
+        narrow_fwd(S.C0, P->W2p, P->W2p / VL, w + P->oWc1, P->W2p, w + P->obc1, 3, S.ro, 3, Te);
+        memcpy(c->out_sigma + t0, S.so, sizeof(float) * rows);
+        memcpy(c->out_rgb + 3 * t0, S.ro, sizeof(float) * rows * 3);
+        PEND(2.0 * T * (P->W + 3 * P->W2))
+        }
+        it = nx;
+    }
+}
+
 /* Forward: out_sigma[M], out_rgb[M,3] (raw, no activation).
    X[M, C_in], Dd[M, C_dir] (may be NULL if C_dir == 0), sample-major float32. */
 int mlp_forward(int D, int W, int skip, int C_in, int C_dir, const float* params, const float* X, const float* Dd,
                 long M, float* out_sigma, float* out_rgb) {
-    plan_t P;
-    if (make_plan(&P, D, W, skip, C_in, C_dir)) return -1;
+    call_t c;
+    memset(&c, 0, sizeof c);
+    if (make_plan(&c.P, D, W, skip, C_in, C_dir)) return -1;
     ensure_tables();
-    int need_prep;
-    float* w = get_prep(&P, params, &need_prep);
-    const long T = choose_tile(&P, 0, M, opt_threads);
-    const long ntiles = (M + T - 1) / T;
+    c.w = get_prep(&c.P, params, &c.need_prep);
+    c.params = params; c.X = X; c.Dd = Dd; c.M = M; c.out_sigma = out_sigma; c.out_rgb = out_rgb;
+    c.T = choose_tile(&c.P, 0, M, opt_threads);
+    c.ntiles = (M + c.T - 1) / c.T;
     scr_t S0;
-    const size_t nscr = layout_scratch(&P, T, 0, 0, &S0, NULL);
-    long counter = 0;
-#pragma omp parallel num_threads(opt_threads)
-    {
-        if (need_prep) {
-#pragma omp for schedule(dynamic, 1)
-            for (int u = 0; u <= P.D; u++) prep_unit(&P, params, w, u);
-        }
-        int tid = omp_get_thread_num();
-        scr_t S;
-        layout_scratch(&P, T, 0, 0, &S, thread_scratch(tid, nscr));
-        long it = __atomic_fetch_add(&counter, 1, __ATOMIC_RELAXED);
-        pf.calls = 0;
-        while (it < ntiles) {
-            const long nx = __atomic_fetch_add(&counter, 1, __ATOMIC_RELAXED);
-            pf_begin_tile();
-            if (nx < ntiles) {
-                const long n0 = nx * T, nr = (M - n0 < T) ? M - n0 : T;
-                pf_add(X + n0 * C_in, nr * C_in * 4);
-                if (C_dir > 0) pf_add(Dd + n0 * C_dir, nr * C_dir * 4);
-            }
-            pf_plan();
-            const long t0 = it * T;
-            const long rows = (M - t0 < T) ? M - t0 : T;
-            const long Te = rup(rows, TMULT); /* rows processed (zero padded), multiple of TMULT */
-            const float* Xt = X + t0 * C_in;
-            const float* Dt = C_dir > 0 ? Dd + t0 * C_dir : NULL;
-            if (rows < Te) {
-                copy_rows_pad(S.Xp, Xt, rows, Te, C_in);
-                Xt = S.Xp;
-            }
-            { PHASE(14); PSTART fill_dtile(S.Dp, Dt, rows, Te, C_dir, P.Cdp); PEND(0) }
-            Dt = S.Dp;
-            { PSTART
-            tile_forward(&P, w, Xt, Dt, S.H, 0, S.C0, Te);
-            PHASE(11); PEND(0) }
-            const float* hl = S.H[(D - 1) & 1];
-            {
-            PHASE(4);
-            PSTART
-            narrow_fwd(hl, P.Wp, P.Wp / VL, w + P.ows, P.Wp, w + P.obs, 1, S.so, 1, Te);
-            narrow_fwd(S.C0, P.W2p, P.W2p / VL, w + P.oWc1, P.W2p, w + P.obc1, 3, S.ro, 3, Te);
-            memcpy(out_sigma + t0, S.so, sizeof(float) * rows);
-            memcpy(out_rgb + 3 * t0, S.ro, sizeof(float) * rows * 3);
-            PEND(2.0 * T * (P.W + 3 * P.W2))
-            }
-            it = nx;
-        }
-    }
+    c.nscr = layout_scratch(&c.P, c.T, 0, 0, &S0, NULL);
+    team_run(forward_body, &c, opt_threads);
     return 0;
+}
+
+static void backward_body(team_t* team, int tid) {
+    call_t* c = team->ctx;
+    const plan_t* P = &c->P;
+    const float* w = c->w;
+    const long M = c->M, T = c->T, ntiles = c->ntiles;
+    const int C_in = P->Cin, C_dir = P->Cdir, want_dx = c->want_dx, want_dd = c->want_dd;
+    scr_t S;
+    layout_scratch(P, T, 1, want_dx | 2 * want_dd, &S, thread_scratch(tid, c->nscr));
+    memset(S.grad, 0, sizeof(float) * P->ngrad);
+    c->gthr[tid] = S.grad;
+    if (tid == 0) c->nth = team->nth;
+    if (c->need_prep) team_units(team, &c->prep_counter, P->D + 1, prep_one, c);
+    else team_barrier(team); /* every gthr[] is set before anyone reduces */
+    long it = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
+    pf.calls = 0;
+    while (it < ntiles) {
+        const long nx = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
+        pf_begin_tile();
+        if (nx < ntiles) {
+            const long n0 = nx * T, nr = (M - n0 < T) ? M - n0 : T;
+            pf_add(c->X + n0 * C_in, nr * C_in * 4);
+            if (C_dir > 0) pf_add(c->Dd + n0 * C_dir, nr * C_dir * 4);
+            pf_add(c->d_sigma + n0, nr * 4);
+            pf_add(c->d_rgb + 3 * n0, nr * 12);
+        }
+        pf_plan();
+        const long t0 = it * T;
+        const long rows = (M - t0 < T) ? M - t0 : T;
+        const long Te = rup(rows, TMULT); /* rows processed (zero padded), multiple of TMULT */
+        const float* Xt = c->X + t0 * C_in;
+        const float* Dt = C_dir > 0 ? c->Dd + t0 * C_dir : NULL;
+        const float* ds = c->d_sigma + t0;
+        const float* dr = c->d_rgb + 3 * t0;
+        { PHASE(14); PSTART fill_dtile(S.Dp, Dt, rows, Te, C_dir, P->Cdp); PEND(0) }
+        Dt = S.Dp;
+        if (rows < Te) {
+            copy_rows_pad(S.Xp, Xt, rows, Te, C_in);
+            Xt = S.Xp;
+            copy_rows_pad(S.dsp, ds, rows, Te, 1); ds = S.dsp;
+            copy_rows_pad(S.drp, dr, rows, Te, 3); dr = S.drp;
+        }
+        { PSTART
+        tile_forward(P, w, Xt, Dt, S.H, 1, S.C0, Te);
+        tile_backward(P, w, Xt, Dt, ds, dr, &S, want_dx ? S.dXs : NULL, want_dd ? S.dDs : NULL, Te);
+        if (want_dd)
+            for (long t = 0; t < rows; t++)
+                memcpy(c->dDd + (t0 + t) * C_dir, S.dDs + t * P->Cdp, sizeof(float) * C_dir);
+        PHASE(12); PEND(0) }
+        if (want_dx) {
+            PHASE(13); PSTART
+            /* compact the padded rows in cache, then write the contiguous block with streaming stores */
+            float* tmp = S.Xp; /* free at this point */
+            for (long t = 0; t < rows; t++) memcpy(tmp + t * C_in, S.dXs + t * P->Cinp, sizeof(float) * C_in);
+            stream_out(c->dX + t0 * C_in, tmp, rows * C_in);
+            PEND(0)
+        }
+        it = nx;
+    }
+    _mm_sfence(); /* order the streaming stores of dX */
+    team_barrier(team);
+    /* reduce the private gradients once, directly into the flat (torch) layout */
+    team_units(team, &c->unpack_counter, P->D + 1, unpack_one, c);
 }
 
 /* Backward (recomputes the forward per tile).
@@ -1092,80 +1250,20 @@ int mlp_forward(int D, int W, int skip, int C_in, int C_dir, const float* params
    dDd: [M, C_dir] gradient w.r.t. Dd (overwritten), or NULL if not needed. */
 int mlp_backward(int D, int W, int skip, int C_in, int C_dir, const float* params, const float* X, const float* Dd,
                  long M, const float* d_sigma, const float* d_rgb, float* grad, float* dX, float* dDd) {
-    plan_t P;
-    if (make_plan(&P, D, W, skip, C_in, C_dir)) return -1;
+    call_t c;
+    memset(&c, 0, sizeof c);
+    if (make_plan(&c.P, D, W, skip, C_in, C_dir)) return -1;
     ensure_tables();
-    int need_prep;
-    float* w = get_prep(&P, params, &need_prep);
-    const long T = choose_tile(&P, 1, M, opt_threads);
-    const long ntiles = (M + T - 1) / T;
-    const int want_dx = dX != NULL, want_dd = dDd != NULL && C_dir > 0;
+    c.w = get_prep(&c.P, params, &c.need_prep);
+    c.params = params; c.X = X; c.Dd = Dd; c.M = M; c.d_sigma = d_sigma; c.d_rgb = d_rgb;
+    c.grad = grad; c.dX = dX; c.dDd = dDd;
+    c.T = choose_tile(&c.P, 1, M, opt_threads);
+    c.ntiles = (M + c.T - 1) / c.T;
+    c.want_dx = dX != NULL;
+    c.want_dd = dDd != NULL && C_dir > 0;
     scr_t S0;
-    const size_t nscr = layout_scratch(&P, T, 1, want_dx | 2 * want_dd, &S0, NULL);
-    float* gthr[MAXTH];
-    long counter = 0;
-#pragma omp parallel num_threads(opt_threads)
-    {
-        int tid = omp_get_thread_num();
-        int nth = omp_get_num_threads();
-        scr_t S;
-        layout_scratch(&P, T, 1, want_dx | 2 * want_dd, &S, thread_scratch(tid, nscr));
-        memset(S.grad, 0, sizeof(float) * P.ngrad);
-        gthr[tid] = S.grad;
-        if (need_prep) {
-#pragma omp for schedule(dynamic, 1)
-            for (int u = 0; u <= P.D; u++) prep_unit(&P, params, w, u);
-        } /* (implicit barrier) */
-        long it = __atomic_fetch_add(&counter, 1, __ATOMIC_RELAXED);
-        pf.calls = 0;
-        while (it < ntiles) {
-            const long nx = __atomic_fetch_add(&counter, 1, __ATOMIC_RELAXED);
-            pf_begin_tile();
-            if (nx < ntiles) {
-                const long n0 = nx * T, nr = (M - n0 < T) ? M - n0 : T;
-                pf_add(X + n0 * C_in, nr * C_in * 4);
-                if (C_dir > 0) pf_add(Dd + n0 * C_dir, nr * C_dir * 4);
-                pf_add(d_sigma + n0, nr * 4);
-                pf_add(d_rgb + 3 * n0, nr * 12);
-            }
-            pf_plan();
-            const long t0 = it * T;
-            const long rows = (M - t0 < T) ? M - t0 : T;
-            const long Te = rup(rows, TMULT); /* rows processed (zero padded), multiple of TMULT */
-            const float* Xt = X + t0 * C_in;
-            const float* Dt = C_dir > 0 ? Dd + t0 * C_dir : NULL;
-            const float* ds = d_sigma + t0;
-            const float* dr = d_rgb + 3 * t0;
-            { PHASE(14); PSTART fill_dtile(S.Dp, Dt, rows, Te, C_dir, P.Cdp); PEND(0) }
-            Dt = S.Dp;
-            if (rows < Te) {
-                copy_rows_pad(S.Xp, Xt, rows, Te, C_in);
-                Xt = S.Xp;
-                copy_rows_pad(S.dsp, ds, rows, Te, 1); ds = S.dsp;
-                copy_rows_pad(S.drp, dr, rows, Te, 3); dr = S.drp;
-            }
-            { PSTART
-            tile_forward(&P, w, Xt, Dt, S.H, 1, S.C0, Te);
-            tile_backward(&P, w, Xt, Dt, ds, dr, &S, want_dx ? S.dXs : NULL, want_dd ? S.dDs : NULL, Te);
-            if (want_dd)
-                for (long t = 0; t < rows; t++) memcpy(dDd + (t0 + t) * C_dir, S.dDs + t * P.Cdp, sizeof(float) * C_dir);
-            PHASE(12); PEND(0) }
-            if (want_dx) {
-                PHASE(13); PSTART
-                /* compact the padded rows in cache, then write the contiguous block with streaming stores */
-                float* tmp = S.Xp; /* free at this point */
-                for (long t = 0; t < rows; t++) memcpy(tmp + t * C_in, S.dXs + t * P.Cinp, sizeof(float) * C_in);
-                stream_out(dX + t0 * C_in, tmp, rows * C_in);
-                PEND(0)
-            }
-            it = nx;
-        }
-        _mm_sfence(); /* order the streaming stores of dX */
-#pragma omp barrier
-        /* reduce the private gradients once, directly into the flat (torch) layout */
-#pragma omp for schedule(dynamic, 1)
-        for (int u = 0; u <= P.D; u++) unpack_unit(&P, gthr, nth, grad, u);
-    }
+    c.nscr = layout_scratch(&c.P, c.T, 1, c.want_dx | 2 * c.want_dd, &S0, NULL);
+    team_run(backward_body, &c, opt_threads);
     return 0;
 }
 
@@ -1190,12 +1288,14 @@ double mlp_bench_gemm(int kind, int rows, int K, int n, int reps, int mode) {
     g.nseg = 1;
     g.s[0] = (seg_t){A, lda, B, n, K};
     g.c = C; g.ldc = n; g.mode = kind == 0 ? mode : EPI_ADD; g.bias = bias; g.mask = C;
-    double t0 = omp_get_wtime();
+    struct timespec ts0, ts1;
+    clock_gettime(CLOCK_MONOTONIC, &ts0);
     for (int r = 0; r < reps; r++) {
         if (kind == 0) gemm_row(&g, rows, n);
         else gemm_col(&g, rows + 1, 1, n);
     }
-    double t = omp_get_wtime() - t0;
+    clock_gettime(CLOCK_MONOTONIC, &ts1);
+    double t = (ts1.tv_sec - ts0.tv_sec) + 1e-9 * (ts1.tv_nsec - ts0.tv_nsec);
     free(A); free(B); free(C); free(bias);
     return 2.0 * rows * (double)K * n * reps / t / 1e9;
 }
