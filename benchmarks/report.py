@@ -7,7 +7,9 @@ produced it). This script renders it:
 * ``RESULTS.md``: every entry, grouped by area, with its command, machine and date;
 * the README's results table, between ``<!-- results:begin -->`` and ``<!-- results:end -->``
   (the entries whose key is listed in ``README_KEYS``);
-* ``REPRODUCTION.md`` when :mod:`mitnerf.experiments.reproduction` is present.
+* ``REPRODUCTION.md`` (:mod:`mitnerf.experiments.reproduction`: every claim of the two source
+  reports beside our figure, from the ``experiment/...`` entries) and its figure
+  ``docs/reproduction.png``.
 
     python benchmarks/report.py
 """
@@ -21,7 +23,9 @@ from pathlib import Path
 from mitnerf.results import load_results, machine_line
 
 ROOT = Path(__file__).resolve().parents[1]
-README_KEYS = ("demo/bunny", "fit/bunny-cli", "step_time/summary", "window_shopping/vase", "sweep/reference")
+README_KEYS = ("demo/bunny", "fit/bunny-cli", "step_time/w128", "step_time/w32", "step_time/equal_steps_psnr",
+               "experiment/pe", "experiment/depth", "experiment/pixelnerf", "experiment/window-shop",
+               "seeds/grid-2d", "check/nerfstudio")
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
 
 
@@ -51,7 +55,13 @@ def main() -> int:
     old = readme.read_text()
     if BEGIN in old:
         readme.write_text(re.sub(re.escape(BEGIN) + ".*?" + re.escape(END), lambda _: body, old, flags=re.S))
-    print(f"wrote RESULTS.md ({len(results)} figures) and the README's table ({len(chosen)} rows)")
+    from mitnerf.experiments.reproduction import document, figure
+
+    (ROOT / "docs").mkdir(exist_ok=True)
+    fig = figure(results, ROOT / "docs" / "reproduction.png")
+    (ROOT / "REPRODUCTION.md").write_text(document(results, "docs/reproduction.png" if fig else None,
+                                                   "python benchmarks/report.py"))
+    print(f"wrote RESULTS.md ({len(results)} figures), REPRODUCTION.md and the README's table ({len(chosen)} rows)")
     return 0
 
 

@@ -1,12 +1,20 @@
 """``mitnerf experiment NAME --out DIR [--quick] [--seed S] [--set KEY=VALUE ...]``.
 
 Runs one experiment of :mod:`mitnerf.experiments` into ``DIR`` (CSV, figures,
-``report.md``); ``--set`` changes one field of the experiment's ``Config``.
+``report.md``); ``--set`` changes one field of the experiment's ``Config``. A full run
+(not ``--quick``) of an experiment that tests the source reports records its rows, the
+command and the machine in the results file (:mod:`mitnerf.experiments.reproduction`).
+
+``mitnerf experiment all --out DIR`` runs those experiments at full size, each into
+``DIR/<name>``, and writes ``DIR/REPRODUCTION.md``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
+import shlex
+import time
 from pathlib import Path
 
 from .._io import Output
@@ -17,7 +25,7 @@ from .args import key_value, number
 
 def register(sub) -> None:
     p = sub.add_parser("experiment", help="run an experiment; writes CSV, figures and report.md")
-    p.add_argument("name", choices=list(EXPERIMENTS))
+    p.add_argument("name", choices=[*EXPERIMENTS, "all"])
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files")
     p.add_argument("--quick", action="store_true", help="a small version (about a minute)")
@@ -51,9 +59,25 @@ def configure(module, quick: bool, seed: int, sets: list) -> object:
 
 
 def run(args) -> int:
-    module = EXPERIMENTS[args.name]
-    cfg = configure(module, args.quick, args.seed, args.sets)
+    from ..experiments.reproduction import REPRODUCE, record, write
+    from ..results import load_results
+
+    names = REPRODUCE if args.name == "all" else (args.name,)
+    if args.name == "all" and args.sets:
+        raise ConfigError("--set applies to one experiment; run `mitnerf experiment NAME --set ...` instead of all")
+    cfgs = {n: configure(EXPERIMENTS[n], args.quick, args.seed, args.sets) for n in names}
     out = Output(Path(args.out), f"experiment {args.name}", args.overwrite).claim()
-    module.run(cfg, out)
-    print(f"wrote {out / 'report.md' if (out / 'report.md').exists() else out}")
+    command = " ".join(["mitnerf experiment", args.name, "--out", shlex.quote(args.out)]
+                       + (["--seed", str(args.seed)] if args.seed else [])
+                       + [f"--set {shlex.quote(f'{k}={v if isinstance(v, str) else json.dumps(v)}')}" for k, v in args.sets])
+    for n in names:
+        where = out / n if args.name == "all" else out
+        where.mkdir(exist_ok=True)
+        t0 = time.perf_counter()
+        rows = EXPERIMENTS[n].run(cfgs[n], where)
+        if not args.quick and n in REPRODUCE:
+            record(n, cfgs[n], rows, time.perf_counter() - t0, command)
+        print(f"wrote {where / 'report.md' if (where / 'report.md').exists() else where}", flush=True)
+    if args.name == "all":
+        print(f"wrote {write(load_results(), out, command)}")
     return 0

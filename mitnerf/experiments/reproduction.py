@@ -1,0 +1,173 @@
+"""``REPRODUCTION.md``: every claim of the two source reports beside our figure.
+
+``mitnerf experiment all --out DIR`` runs the experiments of :data:`REPRODUCE` at full size
+(each into ``DIR/<name>``), records each one's rows in the results file
+(:func:`record`, key ``experiment/<name>``, with the command, the budget and the machine)
+and writes ``DIR/REPRODUCTION.md``; ``python benchmarks/report.py`` writes the same document
+at the top of the source tree from the results file, so a figure lives in one place.
+
+The document: per report, a table of its claims (:mod:`.claims`): the passage quoted, where
+it stands in the report, their figure, ours, whether it holds (and the measured cause where
+it does not), the command, budget and machine, and the deviations; then the
+window-shopping report's Table 2 row for row beside ours, our additional rows, and one
+figure (``reproduction.png``) drawn from the same rows.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+from ..results import machine_line, record_result
+from .claims import CLAIMS, MISSING, SOURCES, _f, _ws
+from .report import markdown_table, num, summarise
+from .window_shop import COMBINATIONS
+
+REPRODUCE = ("pe", "depth", "pixelnerf", "window-shop")
+"""The experiments that test the reports' claims (``mitnerf experiment all``)."""
+
+KEEP = ("psnr", "ssim", "iou", "depth_error", "chamfer", "train_time", "steps", "status", "reason")
+
+
+def slim(row: dict) -> dict:
+    """A row's labels and metrics (no paths, no long texts), for the results file."""
+    return {k: v for k, v in row.items() if (k in KEEP or not isinstance(v, float)) and k not in ("recipe", "params",
+                                                                                                  "render_time")}
+
+
+def budget(name: str, cfg) -> str:
+    """The experiment's budget in words, from its config."""
+    c = dataclasses.asdict(cfg)
+    if name == "pe":
+        return f"{c['steps']} steps per run, {len(c['Ls'])} L x {c['seeds']} seeds"
+    if name == "depth":
+        return f"{c['steps']} steps of {c['batch_rays']} rays, {len(c['scenes'])} scenes x {len(c['views'])} view counts x 2 x {c['seeds']} seeds"
+    if name == "pixelnerf":
+        return (f"pixelNeRF per encoder: the recipe's budget; NeRF: {c['nerf_iters']} steps or {c['nerf_time_budget']:g} s,"
+                f" {c['draws']} draws per k")
+    if name == "window-shop":
+        return (f"{c['iters']} steps or {c['time_budget']:g} s per row of {c['batch_rays']} rays, {c['architecture']} MLP, "
+                f"{len(c['objects'])} objects")
+    return ""
+
+
+def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path: Path | None = None) -> dict:
+    """Store an experiment's rows, config and budget in the results file."""
+    verdicts = [f"{c.key}: {c.judge(rows)[1].split(':')[0]}" for c in CLAIMS if c.experiment == name and rows]
+    return record_result(f"experiment/{name}", {"rows": [slim(r) for r in rows], "wall_s": round(seconds, 1)},
+                         f"{len(rows)} runs in {seconds / 60:.0f} min; " + ("; ".join(verdicts) or "no claims"),
+                         command, path=path, budget=budget(name, cfg), config=dataclasses.asdict(cfg))
+
+
+def _judge(claim, results: dict) -> tuple[str, str]:
+    entry = results.get(f"experiment/{claim.experiment}")
+    if not entry or not entry["values"].get("rows"):
+        return "-", f"{MISSING} (`mitnerf experiment {claim.experiment}`)"
+    try:
+        return claim.judge(entry["values"]["rows"])
+    except (KeyError, ValueError, ZeroDivisionError) as e:
+        return "-", f"{MISSING}: the recorded rows lack {e}"
+
+
+def claims_table(results: dict, source: str) -> str:
+    rows = []
+    for c in CLAIMS:
+        if c.source != source:
+            continue
+        ours, stands = _judge(c, results)
+        e = results.get(f"experiment/{c.experiment}")
+        ran = (f"`{e['command']}`; {e.get('budget', '')}; {machine_line(e['machine'])}, {e['date']}" if e else
+               f"`mitnerf experiment {c.experiment}`")
+        rows.append({"claim": f"\"{c.quote}\" ({c.where})", "theirs": c.theirs, "ours": ours, "stands": stands,
+                     "command, budget, machine": ran, "deviations": c.deviations})
+    return markdown_table(rows)
+
+
+def table2(results: dict) -> str:
+    e = results.get("experiment/window-shop")
+    objs = _ws(e["values"]["rows"]) if e else {}
+    rows = []
+    for i, (images, L, nc, vd, theirs) in COMBINATIONS.items():
+        row = {"#": i, "images": images, "L": L, "N_c": nc, "view dep.": "on" if vd else "off",
+               "Table 2 PSNR": f"{theirs:.1f}"}
+        for obj, rs in objs.items():
+            r = rs.get(str(i), {})
+            row[f"{obj} PSNR / SSIM"] = f"{_f(r.get('psnr'), '.2f')} / {_f(r.get('ssim'), '.3f')}"
+            steps, t = num(r.get("steps")), num(r.get("train_time"))
+            row[f"{obj} steps, s"] = f"{int(steps) if math.isfinite(steps) else '-'}, {_f(t, '.0f')}"
+        rows.append(row)
+    add = [{"row": label, "object": obj, "images": r.get("images"), "PSNR": _f(r.get("psnr"), ".2f"),
+            "SSIM": _f(r.get("ssim"), ".3f"), "steps": r.get("steps"), "train s": _f(r.get("train_time"), ".0f")}
+           for obj, rs in objs.items() for label, r in rs.items() if not label.isdigit()]
+    return markdown_table(rows) + "\nOur additions:\n\n" + markdown_table(add)
+
+
+def figure(results: dict, path: Path) -> Path | None:
+    """One figure of four panels from the recorded rows; None when nothing is recorded."""
+    from ..viz.panels import pyplot, save
+
+    got = {n: results[f"experiment/{n}"]["values"]["rows"] for n in REPRODUCE if f"experiment/{n}" in results}
+    if not got:
+        return None
+    plt = pyplot()
+    fig, ax = plt.subplots(1, 4, figsize=(17, 3.6))
+    if "pe" in got:
+        s = sorted(summarise([{**r, "L": int(r["L"])} for r in got["pe"]], ["L"]), key=lambda r: r["L"])
+        ax[0].errorbar([r["L"] for r in s], [r["psnr"] for r in s], yerr=[r["psnr_std"] for r in s], fmt="o-",
+                       capsize=3)
+        ax[0].set(title="NeRF2D: positional encoding (bunny)", xlabel="L", ylabel="test PSNR [dB]")
+    if "depth" in got:
+        s = summarise([{**r, "views": int(r["views"])} for r in got["depth"]], ["views", "method"])
+        for method, style in (("NeRF", "o--"), ("DS-NeRF", "s-")):
+            pts = sorted((r["views"], r["psnr"]) for r in s if r["method"] == method)
+            ax[1].plot(*zip(*pts), style, label=method)
+        ax[1].set(title="NeRF2D: depth supervision (4 scenes)", xlabel="training views", ylabel="mean test PSNR [dB]")
+        ax[1].legend(fontsize=7)
+    if "pixelnerf" in got:
+        ev = [{**r, "k": int(r["k"])} for r in got["pixelnerf"] if r.get("group") == "eval"]
+        for (scene, method), style in zip(sorted({(r["scene"], r["method"]) for r in ev}), ["o-", "s-", "^--"] * 4):
+            pts = sorted((r["k"], r["psnr"]) for r in summarise([x for x in ev if x["scene"] == scene and
+                                                                 x["method"] == method], ["k"]))
+            ax[2].plot(*zip(*pts), style, label=f"{scene}, {method}")
+        ax[2].set(title="NeRF2D: pixelNeRF vs NeRF", xlabel="input views", ylabel="test PSNR [dB]")
+        ax[2].legend(fontsize=6)
+    if "window-shop" in got:
+        idx = list(COMBINATIONS)
+        ax[3].plot(idx, [COMBINATIONS[i][4] for i in idx], "ks", mfc="none", label="Table 2 (Lego, GPU)")
+        for obj, rs in _ws(got["window-shop"]).items():
+            ax[3].plot(idx, [num(rs.get(str(i), {}).get("psnr")) for i in idx], "o", label=f"ours, {obj}")
+        ax[3].set(title="Window shopping: Table 2 row for row", xlabel="combination", ylabel="test PSNR [dB]",
+                  xticks=idx)
+        ax[3].legend(fontsize=7)
+    for a in ax:
+        a.grid(alpha=0.3)
+    save(fig, path)
+    return path
+
+
+def document(results: dict, figure_name: str | None, command: str) -> str:
+    """The text of ``REPRODUCTION.md``."""
+    parts = ["# Reproducing the two source reports\n",
+             f"Generated by `{command}` from the results file; do not edit by hand. Every passage in quotation "
+             "marks is quoted verbatim from the report named above its table (short quotes only; the reports "
+             "themselves are not part of this project). *Stands* says whether our figure supports the claim, "
+             "and where it does not, what we measured instead. Each experiment's command re-makes its figures; "
+             "`make reproduce` re-makes all of them.\n"]
+    if figure_name:
+        parts.append(f"![the four experiments, ours against the reports]({figure_name})\n")
+    for source, title in SOURCES.items():
+        parts += [f"## {title}\n", claims_table(results, source)]
+        if source == "window-shop":
+            parts += ["### Table 2, row for row\n", "Their Table 1 combinations at 2000 iterations with their "
+                      "Table 2 PSNR, beside ours on each object (the same wall-clock budget per row, and the same "
+                      "2000 steps where the budget affords them).\n", table2(results)]
+    return "\n".join(parts)
+
+
+def write(results: dict, out: Path, command: str) -> Path:
+    """``out/REPRODUCTION.md`` and ``out/reproduction.png``."""
+    from .._io import atomic_write_text
+
+    fig = figure(results, out / "reproduction.png")
+    return atomic_write_text(out / "REPRODUCTION.md", document(results, "reproduction.png" if fig else None, command))
