@@ -80,7 +80,7 @@ def test_nerf2d_judges():
     pe = [{"L": L, "seed": s, "psnr": p + 0.1 * s, "ssim": 0.9, "iou": 0.9, "train_time": 20.0, "steps": 1000,
            "status": "ok"} for L, p in ((0, 24.0), (1, 25.0), (8, 32.0)) for s in range(2)]
     # L = 1: 25.05 dB (mean of 25.0, 25.1) -> L = 8: 32.05 dB
-    assert by_key("pe-trend").judge(pe) == ("L=0: 24.1, L=1: 25.1, L=8: 32.0 dB", f"{REPRODUCED}: +7.0 dB from L = 1 to L = 8")
+    assert by_key("pe-trend").judge(pe) == ("L=0: 24.1, L=1: 25.1, L=8: 32.0 dB", f"{REPRODUCED}: +7.0 dB from L = 1 to the best, L = 8")
     assert by_key("nerf2d-speed").judge(pe)[0] == "20.0 s to 32.0 dB (L = 8, 1000 steps)"
     flat = [{**r, "psnr": 25.0} for r in pe]
     assert by_key("pe-trend").judge(flat)[1].startswith(NOT)

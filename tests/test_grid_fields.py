@@ -98,6 +98,10 @@ def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
         result = auto_size(ds, cfg)
         chosen[scene] = result.model.field_args["resolution"]
         assert result.reasons and len(result.trials) >= 2
+        # view dependence and each regulariser were probed on the chosen size, each with its reason
+        notes = [t.note for t in result.trials]
+        assert {"view dependence", "distortion_weight", "opacity_weight"} <= set(notes), notes
+        assert any(r.startswith("distortion_weight = 0.001 ") for r in result.reasons), result.reasons
     assert chosen["square"] < chosen["bunny"], chosen
 
 

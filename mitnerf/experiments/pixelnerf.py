@@ -42,7 +42,7 @@ from .report import markdown_table, mean_std, summarise, train_row, write_csv, w
 
 @dataclass
 class Config:
-    """Sizes and budgets (defaults: the full run, about 15 minutes on 2 cores)."""
+    """Sizes and budgets (defaults: the full run, whose time `mitnerf experiment all` records)."""
 
     n_outlines: int = 48
     """Procedural outlines pixelNeRF is trained on."""

@@ -1,10 +1,10 @@
 """``all_lights``: deterministic direct lighting from every emitter of a scene.
 
 Mitsuba's ``direct`` integrator picks one emitter at random per sample, which leaves
-light-selection noise in multi-light scenes (about 49 dB against 4x the samples at
-256 spp for four lights). The ground truth here only has point (delta) lights,
-whose direct contribution needs no random numbers: this integrator sums all of them,
-so the only thing a pixel still samples is its footprint (67-72 dB at 64 spp).
+light-selection noise in multi-light scenes. The ground truth here only has point
+(delta) lights, whose direct contribution needs no random numbers: this integrator sums
+all of them, so the only thing a pixel still samples is its footprint (the tests bound
+the noise against a render with 4x the samples).
 The scene XML keeps Mitsuba's ``direct`` integrator for plain-Mitsuba users.
 """
 

@@ -4,9 +4,11 @@ dependence earns its place, each from short probe runs that start from the recip
 :func:`auto_size` tries candidates (field family and size from ``LADDER``, each the
 family's recipe with that size) in order of parameter count; every probe trains the same
 number of steps with the same seed (a deterministic search) and is judged by validation
-PSNR. The first to reach ``target_psnr`` is the size; then fewer samples are tried, and
-view dependence is kept only if it raises validation PSNR by ``vd_gain`` dB. Every trial
-is kept as evidence, and every decision gives its reason.
+PSNR. The first to reach ``target_psnr`` is the size; then fewer samples are tried, view
+dependence is kept only if it raises validation PSNR by ``vd_gain`` dB, and so is each
+regulariser of ``regularisers`` (the distortion loss against floaters, the opacity entropy
+against haze) by ``reg_gain`` dB. Every trial is kept as evidence, and every decision gives
+its reason.
 """
 
 from __future__ import annotations
@@ -48,6 +50,10 @@ class AutoConfig:
     """Samples per ray of the size probes."""
     vd_gain: float = 0.2
     """Minimum validation-PSNR gain (dB) for view dependence to be kept."""
+    regularisers: tuple = (("distortion_weight", 1e-3), ("opacity_weight", 1e-3))
+    """(training setting, weight) pairs tried one at a time on the chosen model."""
+    reg_gain: float = 0.2
+    """Minimum validation-PSNR gain (dB) for a regulariser to be kept."""
     seed: int = 0
     """Seed of every probe."""
 
@@ -138,6 +144,17 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
         else:
             reasons.append(f"view dependence dropped: it changed validation PSNR by {gain:+.2f} dB "
                            f"(< {cfg.vd_gain} dB)")
+    for key, weight in cfg.regularisers:              # so does each regulariser
+        if time.perf_counter() - t0 > cfg.time_budget:
+            reasons.append(f"{key} not tried: the search budget is spent")
+            continue
+        t = _trial(dataset, best.recipe.override(**{key: weight}), key)
+        trials.append(t)
+        gain = t.val_psnr - best.val_psnr
+        verb = "kept" if gain >= cfg.reg_gain else "dropped"
+        reasons.append(f"{key} = {weight:g} {verb}: {gain:+.2f} dB validation PSNR (threshold {cfg.reg_gain} dB)")
+        if gain >= cfg.reg_gain:
+            best = t
     return AutoResult(best.recipe, trials, reached, reasons)
 
 
@@ -149,6 +166,8 @@ def choose_recipe(dataset: Dataset, base: Recipe, backend: str = "drjit",
     chosen = recipe_for(result.recipe.model.field, dataset.dim)
     chosen.model.field_args.update(result.recipe.model.field_args)
     chosen.model.render.n_coarse = result.recipe.model.render.n_coarse
+    for key, _ in (cfg or AutoConfig()).regularisers:
+        setattr(chosen.train, key, getattr(result.recipe.train, key))
     chosen.name = f"auto:{chosen.name}"
     lines = [f"{t['family']} ({t['settings']}), {t['samples']} samples: {t['params']} parameters, "
              f"validation {t['val_psnr']} dB [{t['note']}]" for t in result.table()]

@@ -1,0 +1,129 @@
+"""What users bring, fitted: scene x field family x options -> PSNR, geometry, seconds.
+
+Every 2D scene (the NeRF2D protocol: 50 noisy views of 100 px, 4 validation, 8 test views)
+is fitted by each family's recipe (``grid-2d``, ``hashgrid-2d``, ``vanilla-2d``) for
+``--budget`` seconds with each option set of ``OPTIONS`` (view dependence on or off, the
+regularisers on or off), then by ``mitnerf fit --auto`` (marked ``auto``, its search time
+counted). The 3D rows fit a glossy vase (25 views of 100 x 100) for ``--budget-3d``
+seconds (base and view dependence). The default recipe is also run for ``--long`` seconds
+on the ``--long-scenes``: test PSNR must not fall with more training (the best validation
+checkpoint is kept). Every
+row: test PSNR, SSIM, IoU (2D) or Chamfer distance (3D), parameters, training seconds.
+Prints the table and records it in ``results.json`` (``fits/<scene>``, ``fits/longer``).
+
+    python benchmarks/fit_table.py [--scenes bunny bunny_plastic square_concave tu] [--budget 10]
+                                   [--budget-3d 60] [--long 300] [--long-scenes bunny bunny_plastic]
+                                   [--no-auto] [--no-3d]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import _common  # noqa: F401  (chooses the Mitsuba variant)
+from mitnerf.data.cache import cached_dataset
+from mitnerf.data.rig import RigConfig, noise_preset
+from mitnerf.results import record_result
+from mitnerf.train.auto import choose_recipe
+from mitnerf.train.fit import fit_and_evaluate
+from mitnerf.train.recipes import DEFAULT, recipe_for
+
+OPTIONS = {
+    "base": {},
+    "view dependence": {"view_dependent": True},
+    "regularised": {"distortion_weight": 1e-3, "opacity_weight": 1e-3},
+    "view dep. + reg.": {"view_dependent": True, "distortion_weight": 1e-3, "opacity_weight": 1e-3},
+}
+"""Option sets applied on top of each family's recipe."""
+FAMILIES = ("grid", "hashgrid", "vanilla")
+
+
+def dataset(scene: str, dim: int):
+    if dim == 2:
+        return cached_dataset(scene, RigConfig(dim=2, n_train=50, n_val=4, n_test=8, seed=0, **noise_preset(1.0)))
+    return cached_dataset(scene, RigConfig(dim=3, n_train=25, n_val=2, n_test=8, resolution=100, seed=0,
+                                           **noise_preset(1.0)))
+
+
+def row(ds, recipe, label: str, extra_time: float = 0.0) -> dict:
+    _, rec = fit_and_evaluate(ds, recipe)
+    geo = rec.iou if ds.dim == 2 else rec.chamfer
+    return {"run": label, "recipe": recipe.name, "psnr": rec.psnr, "ssim": rec.ssim, "geometry": geo,
+            "params": rec.params, "seconds": rec.train_time + extra_time, "status": rec.status}
+
+
+def show(scene: str, rows: list[dict], dim: int) -> None:
+    geo = "IoU" if dim == 2 else "Chamfer"
+    print(f"\n{scene}\n{'run':<34} {'PSNR':>6} {'SSIM':>6} {geo:>8} {'params':>9} {'s':>6}  status")
+    for r in rows:
+        print(f"{r['run']:<34} {r['psnr']:6.2f} {r['ssim']:6.3f} {r['geometry']:8.4f} {r['params']:9d} "
+              f"{r['seconds']:6.1f}  {r['status']}", flush=True)
+
+
+def table(ds, budget: float, auto: bool, options=tuple(OPTIONS)) -> list[dict]:
+    rows = []
+    for family in FAMILIES:
+        for name, opts in ((n, OPTIONS[n]) for n in options):
+            r = recipe_for(family, ds.dim).override(time_budget=budget, iters=10 ** 6, progress=False, **opts)
+            rows.append(row(ds, r, f"{family}, {name}"))
+    if auto:
+        import time
+
+        t0 = time.perf_counter()
+        chosen, reasons = choose_recipe(ds, recipe_for(DEFAULT[ds.dim], ds.dim))
+        search = time.perf_counter() - t0
+        rows.append({**row(ds, chosen.override(time_budget=budget, progress=False), "auto", search),
+                     "why": "; ".join(reasons[-4:])})
+    return rows
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scenes", nargs="+", default=["bunny", "bunny_plastic", "square_concave", "tu"])
+    p.add_argument("--budget", type=float, default=10.0)
+    p.add_argument("--budget-3d", type=float, default=60.0)
+    p.add_argument("--long", type=float, default=300.0)
+    p.add_argument("--long-scenes", nargs="*", default=["bunny", "bunny_plastic"])
+    p.add_argument("--no-auto", action="store_true")
+    p.add_argument("--no-3d", action="store_true")
+    args = p.parse_args(argv)
+    command = "python benchmarks/fit_table.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    longer = {}
+    for scene in args.scenes:
+        ds = dataset(scene, 2)
+        rows = table(ds, args.budget, not args.no_auto)
+        show(scene, rows, 2)
+        best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
+        auto = next((r for r in rows if r["run"] == "auto"), None)
+        record_result(f"fits/{scene}", {"rows": rows},
+                      f"best {best['run']} {best['psnr']:.2f} dB, IoU {best['geometry']:.3f} in {args.budget:g} s"
+                      + (f"; auto {auto['psnr']:.2f} dB, IoU {auto['geometry']:.3f} ({auto['recipe']})" if auto else ""),
+                      command.strip())
+        if args.long and scene in args.long_scenes:
+            base = recipe_for(DEFAULT[2], 2)
+            short = row(ds, base.override(time_budget=args.budget, progress=False), f"{base.name}, {args.budget:g} s")
+            long = row(ds, base.override(time_budget=args.long, iters=10 ** 6, progress=False),
+                       f"{base.name}, {args.long:g} s")
+            longer[scene] = {"short": short["psnr"], "long": long["psnr"]}
+            print(f"  longer training: {short['psnr']:.2f} dB at {args.budget:g} s -> {long['psnr']:.2f} dB at "
+                  f"{args.long:g} s", flush=True)
+    if longer:
+        worst = min(v["long"] - v["short"] for v in longer.values())
+        record_result("fits/longer", longer,
+                      f"default 2D recipe, {args.budget:g} s -> {args.long:g} s: test PSNR change "
+                      + ", ".join(f"{s} {v['long'] - v['short']:+.2f} dB" for s, v in longer.items())
+                      + (" (never lower)" if worst >= 0 else " (lower on some scene)"), command.strip())
+    if not args.no_3d:
+        ds = dataset("vase_plastic", 3)
+        rows = table(ds, args.budget_3d, auto=False, options=("base", "view dependence"))
+        show("vase_plastic (3D, 25 views)", rows, 3)
+        best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
+        record_result("fits/vase_plastic", {"rows": rows},
+                      f"best {best['run']} {best['psnr']:.2f} dB, Chamfer {best['geometry']:.4f} in {args.budget_3d:g} s",
+                      command.strip())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,100 @@
+"""Where the hash grid's time goes on a CPU, against the dense grid, on the 2D bunny.
+
+One run, 2 threads, the ``hashgrid-2d`` and ``grid-2d`` recipes (1024 rays per step):
+
+* the training step of each, median over rounds (steps alternate between contenders);
+* the hash grid's step split: the encoding alone (forward and backward of
+  :func:`mitnerf.fields.hashenc.hash_encode` on as many points as a step evaluates, table
+  gradient by scatter-add), the step without the occupancy grid, and the step at 24, 48
+  and 96 samples per ray;
+* test PSNR after each recipe's 10 s for the hash grid at three table sizes against the
+  grid, with parameter counts (the grid's at its final resolution).
+
+Prints the figures and records them in ``results.json`` (``hashgrid/...``).
+
+    python benchmarks/hashgrid_profile.py [--rounds 20]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+
+import drjit as dr
+import numpy as np
+from drjit.auto.ad import Float
+
+from _common import alternate, backend, bunny
+from mitnerf.fields import make_field
+from mitnerf.fields.hashenc import hash_encode
+from mitnerf.results import record_result
+from mitnerf.train.fit import fit_and_evaluate
+from mitnerf.train.recipes import get_recipe
+
+COMMAND = "python benchmarks/hashgrid_profile.py"
+
+
+def encoding_time(field, n: int, rounds: int) -> float:
+    """Seconds of the encoding's forward and backward on ``n`` points (median)."""
+    rng = np.random.default_rng(0)
+    table = Float(rng.uniform(-1e-4, 1e-4, field.n_table).astype(np.float32))
+    x = [Float(rng.random(n).astype(np.float32)) for _ in range(field.dim)]
+    cot = [Float(rng.normal(size=n).astype(np.float32)) for _ in range(field.layout.n_levels * field.layout.features)]
+    ts = []
+    for _ in range(rounds + 2):
+        t = dr.detach(table)
+        dr.enable_grad(t)
+        t0 = time.perf_counter()
+        feats = hash_encode(t, x, field.layout)
+        dr.backward(sum(dr.sum(f * c) for f, c in zip(feats, cot)))
+        dr.eval(dr.grad(t))
+        dr.sync_thread()
+        ts.append(time.perf_counter() - t0)
+    return statistics.median(ts[2:])
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--rounds", type=int, default=20)
+    args = p.parse_args(argv)
+    dr.set_thread_count(2)
+    ds = bunny()
+    hg, grid = get_recipe("hashgrid-2d"), get_recipe("grid-2d")
+    contenders = {"hashgrid": backend("drjit", hg.model, ds), "grid": backend("drjit", grid.model, ds)}
+    for n in (24, 96):
+        contenders[f"hashgrid {n} samples"] = backend("drjit", hg.override(n_coarse=n).model, ds)
+    no_occ = hg.copy()
+    no_occ.model.render.occupancy.enabled = False
+    contenders["hashgrid, no occupancy grid"] = backend("drjit", no_occ.model, ds)
+    steps = alternate(contenders, args.rounds)
+    field = make_field("hashgrid", **{**hg.model.field_args, "dim": 2})
+    n_points = 1024 * hg.model.render.n_coarse
+    enc = encoding_time(field, n_points, args.rounds)
+    for name, t in steps.items():
+        print(f"step {name:<30} {1000 * t:7.2f} ms")
+    print(f"hash encoding fwd+bwd on {n_points:,} points (every sample, no occupancy skipping): {1000 * enc:.2f} ms")
+    record_result("hashgrid/step", {**{k: 1000 * v for k, v in steps.items()}, "encoding_ms": 1000 * enc},
+                  f"step: hash grid {1000 * steps['hashgrid']:.1f} ms vs grid {1000 * steps['grid']:.1f} ms; the "
+                  f"encoding alone {1000 * enc:.1f} ms on {n_points:,} points; without the occupancy grid "
+                  f"{1000 * steps['hashgrid, no occupancy grid']:.1f} ms", COMMAND)
+    rows = {}
+    grid_rec = fit_and_evaluate(ds, grid.override(progress=False), geometry_metrics=False)[1]
+    for log2 in (10, 12, 14):
+        r = hg.override(log2_hashmap_size=log2, progress=False)
+        _, rec = fit_and_evaluate(ds, r, geometry_metrics=False)
+        rows[log2] = (rec.psnr, rec.params)
+        print(f"hash grid 2^{log2} entries per level: {rec.psnr:.2f} dB with {rec.params:,} parameters "
+              f"({rec.params / grid_rec.params:.2f} of the grid's); grid {grid_rec.psnr:.2f} dB", flush=True)
+    best = max(rows, key=lambda k: rows[k][0])
+    record_result("hashgrid/psnr", {"grid": grid_rec.psnr, "grid_params": grid_rec.params,
+                                    **{f"2^{k}": v[0] for k, v in rows.items()}},
+                  f"10 s on the bunny: grid {grid_rec.psnr:.2f} dB ({grid_rec.params:,} parameters); hash grid best "
+                  f"2^{best} {rows[best][0]:.2f} dB ({rows[best][1] / grid_rec.params:.2f} of the parameters), "
+                  f"gap {grid_rec.psnr - rows[best][0]:.2f} dB", COMMAND)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
