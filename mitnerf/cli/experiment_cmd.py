@@ -20,6 +20,8 @@ from pathlib import Path
 from .._io import Output
 from ..errors import ConfigError, check_number
 from ..experiments import EXPERIMENTS
+from ..experiments.reproduction import REPRODUCE, record, write
+from ..results import load_results
 from .args import key_value, number
 
 
@@ -59,9 +61,6 @@ def configure(module, quick: bool, seed: int, sets: list) -> object:
 
 
 def run(args) -> int:
-    from ..experiments.reproduction import REPRODUCE, record, write
-    from ..results import load_results
-
     names = REPRODUCE if args.name == "all" else (args.name,)
     if args.name == "all" and args.sets:
         raise ConfigError("--set applies to one experiment; run `mitnerf experiment NAME --set ...` instead of all")

@@ -19,7 +19,9 @@ import dataclasses
 import math
 from pathlib import Path
 
+from .._io import atomic_write_text
 from ..results import machine_line, record_result
+from ..viz.panels import pyplot, save
 from .claims import CLAIMS, MISSING, SOURCES, _f, _ws
 from .report import markdown_table, num, summarise
 from .window_shop import COMBINATIONS
@@ -121,8 +123,6 @@ def table2(results: dict) -> str:
 
 def figure(results: dict, path: Path) -> Path | None:
     """One figure of four panels from the recorded rows; None when nothing is recorded."""
-    from ..viz.panels import pyplot, save
-
     got = {n: results[f"experiment/{n}"]["values"]["rows"] for n in REPRODUCE if f"experiment/{n}" in results}
     if not got:
         return None
@@ -184,7 +184,5 @@ def document(results: dict, figure_name: str | None, command: str) -> str:
 
 def write(results: dict, out: Path, command: str) -> Path:
     """``out/REPRODUCTION.md`` and ``out/reproduction.png``."""
-    from .._io import atomic_write_text
-
     fig = figure(results, out / "reproduction.png")
     return atomic_write_text(out / "REPRODUCTION.md", document(results, "reproduction.png" if fig else None, command))
