@@ -11,8 +11,8 @@ checkpoint is kept). Every
 row: test PSNR, SSIM, IoU (2D) or Chamfer distance (3D), parameters, training seconds.
 Prints the table and records it in ``results.json`` (``fits/<scene>``, ``fits/longer``).
 
-    python benchmarks/fit_table.py [--scenes bunny bunny_plastic square_concave tu] [--budget 10]
-                                   [--budget-3d 60] [--long 300] [--long-scenes bunny bunny_plastic]
+    python benchmarks/fit_table.py [--scenes bunny bunny_glossy square_concave tu] [--budget 10]
+                                   [--budget-3d 60] [--long 300] [--long-scenes bunny bunny_glossy]
                                    [--no-auto] [--no-3d]
 """
 
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 
 import _common  # noqa: F401  (chooses the Mitsuba variant)
 from mitnerf.data.cache import cached_dataset
@@ -27,7 +28,7 @@ from mitnerf.data.rig import RigConfig, noise_preset
 from mitnerf.results import record_result
 from mitnerf.train.auto import AutoConfig, choose_recipe
 from mitnerf.train.fit import fit_and_evaluate
-from mitnerf.train.recipes import DEFAULT, recipe_for
+from mitnerf.train.recipes import recipe_for
 
 OPTIONS = {
     "base": {},
@@ -68,10 +69,8 @@ def table(ds, budget: float, auto: bool, options=tuple(OPTIONS)) -> list[dict]:
             r = recipe_for(family, ds.dim).override(time_budget=budget, iters=10 ** 6, progress=False, **opts)
             rows.append(row(ds, r, f"{family}, {name}"))
     if auto:
-        import time
-
         t0 = time.perf_counter()
-        chosen, reasons = choose_recipe(ds, recipe_for(DEFAULT[ds.dim], ds.dim), cfg=AutoConfig(time_budget=90))
+        chosen, reasons = choose_recipe(ds, recipe_for(None, ds.dim), cfg=AutoConfig(time_budget=90))
         search = time.perf_counter() - t0
         rows.append({**row(ds, chosen.override(time_budget=budget, progress=False), "auto", search),
                      "why": "; ".join(reasons[-4:])})
@@ -80,11 +79,11 @@ def table(ds, budget: float, auto: bool, options=tuple(OPTIONS)) -> list[dict]:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scenes", nargs="+", default=["bunny", "bunny_plastic", "square_concave", "tu"])
+    p.add_argument("--scenes", nargs="+", default=["bunny", "bunny_glossy", "square_concave", "tu"])
     p.add_argument("--budget", type=float, default=10.0)
     p.add_argument("--budget-3d", type=float, default=60.0)
     p.add_argument("--long", type=float, default=300.0)
-    p.add_argument("--long-scenes", nargs="*", default=["bunny", "bunny_plastic"])
+    p.add_argument("--long-scenes", nargs="*", default=["bunny", "bunny_glossy"])
     p.add_argument("--no-auto", action="store_true")
     p.add_argument("--no-3d", action="store_true")
     args = p.parse_args(argv)
@@ -101,7 +100,7 @@ def main(argv=None) -> int:
                       + (f"; auto {auto['psnr']:.2f} dB, IoU {auto['geometry']:.3f} ({auto['recipe']})" if auto else ""),
                       command.strip())
         if args.long and scene in args.long_scenes:
-            base = recipe_for(DEFAULT[2], 2)
+            base = recipe_for(None, 2)
             short = row(ds, base.override(time_budget=args.budget, progress=False), f"{base.name}, {args.budget:g} s")
             long = row(ds, base.override(time_budget=args.long, iters=10 ** 6, progress=False),
                        f"{base.name}, {args.long:g} s")
@@ -115,11 +114,11 @@ def main(argv=None) -> int:
                       + ", ".join(f"{s} {v['long'] - v['short']:+.2f} dB" for s, v in longer.items())
                       + (" (never lower)" if worst >= 0 else " (lower on some scene)"), command.strip())
     if not args.no_3d:
-        ds = dataset("vase_plastic", 3)
+        ds = dataset("vase_glossy", 3)
         rows = table(ds, args.budget_3d, auto=False, options=("base", "view dependence"))
-        show("vase_plastic (3D, 25 views)", rows, 3)
+        show("vase_glossy (3D, 25 views)", rows, 3)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
-        record_result("fits/vase_plastic", {"rows": rows},
+        record_result("fits/vase_glossy", {"rows": rows},
                       f"best {best['run']} {best['psnr']:.2f} dB, Chamfer {best['geometry']:.4f} in {args.budget_3d:g} s",
                       command.strip())
     return 0

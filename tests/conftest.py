@@ -57,7 +57,7 @@ def small(name: str = "vanilla-2d", **overrides):
     return r
 
 
-# Hypothesis profiles (tests/test_fuzz.py): HYPOTHESIS_PROFILE=ci (the default: derandomized, a fixed number of
+# Hypothesis profiles (tests/fuzz/): HYPOTHESIS_PROFILE=ci (the default: derandomized, a fixed number of
 # examples, the whole file well under a minute on 2 cores) or local (many more examples, random).
 try:
     from hypothesis import HealthCheck, settings
@@ -69,7 +69,7 @@ try:
                               suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
                                                      HealthCheck.data_too_large])
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
-except ImportError:  # hypothesis is a test extra; only test_fuzz.py needs it
+except ImportError:  # hypothesis is a test extra; only tests/fuzz/ needs it
     pass
 
 
