@@ -27,7 +27,7 @@ import pytest
 
 from mitnerf.data.formats import save_dataset
 
-from harness import CASES, Inputs, run_main, write_addon, write_ngp
+from .harness import CASES, Inputs, run_main, write_addon, write_ngp
 
 
 @pytest.fixture(scope="session")

@@ -32,7 +32,8 @@ from hypothesis import note, settings
 from mitnerf.cli import main
 
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
+"""The repository (the subprocess cases run ``python -m mitnerf`` from it)."""
 CASES: dict[str, set[str]] = defaultdict(set)
 """category -> the distinct cases tried (descriptions), reported at the end of the run."""
 

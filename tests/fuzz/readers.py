@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 from hypothesis import strategies as st
 
-from harness import case_dir, INF, MAX_SIDE, NAN, npz_bytes, png, png_header, refused
-from strategies import (
+from .harness import case_dir, INF, MAX_SIDE, NAN, npz_bytes, png, png_header, refused
+from .strategies import (
     bad_bytes, draw_file_damage, draw_json_damage, edit_json, finite, NON_FINITE, show, WRONG_TYPE_OR_NULL)
 
 

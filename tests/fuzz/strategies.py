@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from hypothesis import strategies as st
 
-from harness import INF, NAN
+from .harness import INF, NAN
 
 
 # --------------------------------------------------------------------------- value strategies

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from harness import case_dir, CASES, examples, INF, NAN, npz_bytes, refused, ROOT, XML
-from strategies import draw_file_damage, draw_json_damage, edit_json, finite, NON_FINITE, show, WRONG_TYPE_OR_NULL
+from .harness import case_dir, CASES, examples, INF, NAN, npz_bytes, refused, ROOT, XML
+from .strategies import draw_file_damage, draw_json_damage, edit_json, finite, NON_FINITE, show, WRONG_TYPE_OR_NULL
 
 
 # ------------------------------------------------------------------------------ checkpoints

@@ -8,8 +8,8 @@ import string
 import numpy as np
 from hypothesis import given, strategies as st
 
-from harness import case_dir, examples, refused, XML
-from strategies import draw_json_damage, dumps, finite, NON_FINITE, show
+from .harness import case_dir, examples, refused, XML
+from .strategies import draw_json_damage, dumps, finite, NON_FINITE, show
 
 
 # ----------------------------------------------------------------------------- polygon files

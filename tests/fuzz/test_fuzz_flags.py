@@ -6,8 +6,8 @@ import string
 
 from hypothesis import given, strategies as st
 
-from harness import case_dir, examples, refused
-from strategies import finite
+from .harness import case_dir, examples, refused
+from .strategies import finite
 
 
 # -------------------------------------------------------------------------- numeric flags

@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 from hypothesis import given, strategies as st
 
-from harness import examples, INF, MAX_SIDE, mem_total, NAN, npz_bytes, npz_with_fake, png, png_header
-from strategies import (
+from .harness import examples, INF, MAX_SIDE, mem_total, NAN, npz_bytes, npz_with_fake, png, png_header
+from .strategies import (
     away_from, bad_focal, draw_file_damage, draw_frames_damage, draw_json_damage, draw_pose_damage, edit_json,
     finite, NON_FINITE, show, WRONG_TYPE, WRONG_TYPE_OR_NULL)
-from readers import check_reader, image_damage, meta_damage, NERF2D_COUNTS
+from .readers import check_reader, image_damage, meta_damage, NERF2D_COUNTS
 
 
 def header_damage(data, header: dict, W: int, H: int, has_fl: bool, has_angle: bool) -> tuple[str, str, object]:

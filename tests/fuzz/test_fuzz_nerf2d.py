@@ -10,9 +10,9 @@ from pathlib import Path
 
 from hypothesis import given, strategies as st
 
-from harness import case_dir, examples, ring_points, run_main, XML
-from strategies import bad_focal, draw_frames_damage, draw_json_damage, edit_json, show
-from readers import check_reader, image_damage, meta_damage, NERF2D_COUNTS, npz_damage
+from .harness import case_dir, examples, ring_points, run_main, XML
+from .strategies import bad_focal, draw_frames_damage, draw_json_damage, edit_json, show
+from .readers import check_reader, image_damage, meta_damage, NERF2D_COUNTS, npz_damage
 
 
 def test_valid_inputs_in_unicode_paths_with_spaces_work(base):

@@ -1,0 +1,1 @@
+"""Hostile inputs, generated (Hypothesis): see ``conftest.py`` for the rule and the profiles."""
