@@ -74,6 +74,7 @@ def library():
     lib.mlp_forward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F]
     lib.mlp_backward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F, _F, _F, _F]
     lib.mlp_forward.restype = lib.mlp_backward.restype = I
+    lib.mlp_set_options.argtypes = [I] * 6
     return lib
 
 
@@ -92,8 +93,11 @@ def _host(x: Float) -> np.ndarray:
 def _cores_to_the_kernel():
     """Dr.Jit's idle workers keep spinning for some milliseconds after a launch; on 2 cores they
     halve the kernel's speed (``benchmarks/step_time.py``). Shrinking the pool to one thread while
-    the kernel runs parks them; the call is cheap next to the kernel."""
+    the kernel runs parks them; the call is cheap next to the kernel. The kernel runs as many
+    threads as Dr.Jit's pool had (``--threads``): with one, its tiles are summed in one order
+    and a run repeats bit for bit."""
     n = dr.thread_count()
+    library().mlp_set_options(0, max(1, n), 0, 0, 0, 0)
     dr.set_thread_count(1)
     try:
         yield
