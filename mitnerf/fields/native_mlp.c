@@ -1113,6 +1113,26 @@ static void unpack_one(const void* a, int u) {
     unpack_unit(&c->P, c->gthr, c->nth, c->grad, u);
 }
 
+/* Claims the next tile and queues its inputs (in the backward pass also its output
+   gradients) for prefetch while the current tile runs; returns its index. */
+static long next_tile(call_t* c, int backward) {
+    const long nx = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
+    const long M = c->M, T = c->T;
+    const int C_in = c->P.Cin, C_dir = c->P.Cdir;
+    pf_begin_tile();
+    if (nx < c->ntiles) {
+        const long n0 = nx * T, nr = (M - n0 < T) ? M - n0 : T;
+        pf_add(c->X + n0 * C_in, nr * C_in * 4);
+        if (C_dir > 0) pf_add(c->Dd + n0 * C_dir, nr * C_dir * 4);
+        if (backward) {
+            pf_add(c->d_sigma + n0, nr * 4);
+            pf_add(c->d_rgb + 3 * n0, nr * 12);
+        }
+    }
+    pf_plan();
+    return nx;
+}
+
 static void forward_body(team_t* team, int tid) {
     call_t* c = team->ctx;
     const plan_t* P = &c->P;
@@ -1125,14 +1145,7 @@ static void forward_body(team_t* team, int tid) {
     long it = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
     pf.calls = 0;
     while (it < ntiles) {
-        const long nx = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
-        pf_begin_tile();
-        if (nx < ntiles) {
-            const long n0 = nx * T, nr = (M - n0 < T) ? M - n0 : T;
-            pf_add(c->X + n0 * C_in, nr * C_in * 4);
-            if (C_dir > 0) pf_add(c->Dd + n0 * C_dir, nr * C_dir * 4);
-        }
-        pf_plan();
+        const long nx = next_tile(c, 0);
         const long t0 = it * T;
         const long rows = (M - t0 < T) ? M - t0 : T;
         const long Te = rup(rows, TMULT); /* rows processed (zero padded), multiple of TMULT */
@@ -1195,16 +1208,7 @@ static void backward_body(team_t* team, int tid) {
     long it = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
     pf.calls = 0;
     while (it < ntiles) {
-        const long nx = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
-        pf_begin_tile();
-        if (nx < ntiles) {
-            const long n0 = nx * T, nr = (M - n0 < T) ? M - n0 : T;
-            pf_add(c->X + n0 * C_in, nr * C_in * 4);
-            if (C_dir > 0) pf_add(c->Dd + n0 * C_dir, nr * C_dir * 4);
-            pf_add(c->d_sigma + n0, nr * 4);
-            pf_add(c->d_rgb + 3 * n0, nr * 12);
-        }
-        pf_plan();
+        const long nx = next_tile(c, 1);
         const long t0 = it * T;
         const long rows = (M - t0 < T) ? M - t0 : T;
         const long Te = rup(rows, TMULT); /* rows processed (zero padded), multiple of TMULT */
