@@ -1,15 +1,7 @@
-"""Let the data choose: the smallest model that reaches a target, and whether view
-dependence earns its place, each from short probe runs that start from the recipes.
-
-:func:`auto_size` tries candidates (field family and size from ``LADDER``, each the
-family's recipe with that size) in order of parameter count; every probe trains the same
-number of steps with the same seed (a deterministic search) and is judged by validation
-PSNR. The first to reach ``target_psnr`` is the size; then fewer samples are tried, view
-dependence is kept only if it raises validation PSNR by ``vd_gain`` dB, and so is each
-regulariser of ``regularisers`` (the distortion loss against floaters, the opacity entropy
-against haze) by ``reg_gain`` dB. Every trial is kept as evidence, and every decision gives
-its reason.
-"""
+"""Let the data choose the smallest model that reaches a target, from short probe runs: :func:`auto_size`
+probes ``LADDER``'s candidates by parameter count (same steps and seed, judged by validation PSNR); the first
+to reach ``target_psnr`` is the size. Then fewer samples are tried, and view dependence and each regulariser
+are kept only if they gain ``vd_gain`` / ``reg_gain`` dB. Every trial and every decision's reason is kept."""
 
 from __future__ import annotations
 
@@ -78,41 +70,31 @@ class AutoResult:
     def model(self):
         return self.recipe.model
 
-    def table(self) -> list[dict]:
-        return [dict(family=t.recipe.model.field, settings=", ".join(f"{k}={v}" for k, v in
-                                                                     t.recipe.model.field_args.items()),
-                     samples=t.recipe.model.render.n_coarse, params=t.params, val_psnr=round(t.val_psnr, 2),
-                     train_s=round(t.train_time, 1), note=t.note) for t in self.trials]
-
-
-def probe_recipe(family: str, args: dict, dim: int, cfg: AutoConfig, background) -> Recipe:
-    """The family's recipe at the given size, trained ``cfg.steps`` steps and validated once at the end."""
-    r = recipe_for(family, dim).override(**args, iters=cfg.steps, seed=cfg.seed, val_every=0, val_views=100,
-                                         n_coarse=cfg.samples, background=background, progress=False)
-    r.train.time_budget, r.model.render.occupancy.enabled = None, False
-    return r
-
-
-def _trial(dataset: Dataset, recipe: Recipe, note: str) -> Trial:
-    run = fit(dataset, recipe.copy(), "drjit", progress=False)
-    val = run.state.history["val_psnr"]
-    return Trial(recipe, run.backend.n_params(), val[-1] if val else -math.inf, run.state.train_time, note)
-
 
 def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
     """The smallest candidate that reaches ``cfg.target_psnr``; see the module docstring."""
     cfg = cfg or AutoConfig()
     t0 = time.perf_counter()
-    bg = dataset.background
+    spent = lambda: time.perf_counter() - t0 > cfg.time_budget
     size = lambda fam, args: sum(v.size for v in make_field(fam, **{**args, "dim": dataset.dim}).init_numpy(0).values())
     cands = sorted((c for c in LADDER[dataset.dim] if c[0] in cfg.families), key=lambda c: size(*c))
     trials: list[Trial] = []
+
+    def trial(recipe: Recipe, note: str) -> Trial:
+        run = fit(dataset, recipe.copy(), "drjit", progress=False)
+        val = run.state.history["val_psnr"]
+        trials.append(Trial(recipe, run.backend.n_params(), val[-1] if val else -math.inf, run.state.train_time, note))
+        return trials[-1]
+
     best = None
     for family, args in cands:
-        if time.perf_counter() - t0 > cfg.time_budget:
+        if spent():
             break
-        t = _trial(dataset, probe_recipe(family, args, dataset.dim, cfg, bg), "size")
-        trials.append(t)
+        r = recipe_for(family, dataset.dim).override(**args, iters=cfg.steps, seed=cfg.seed, val_every=0,
+                                                     val_views=100, n_coarse=cfg.samples,
+                                                     background=dataset.background, progress=False)
+        r.train.time_budget, r.model.render.occupancy.enabled = None, False   # probes: cfg.steps steps, one validation
+        t = trial(r, "size")
         if best is None or t.val_psnr > best.val_psnr or t.val_psnr >= cfg.target_psnr:
             best = t
         if t.val_psnr >= cfg.target_psnr:
@@ -123,10 +105,9 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
                f"({best.val_psnr:.2f} dB)" if reached else
                f"no candidate reached {cfg.target_psnr:.1f} dB within the budget; best: {fam} ({best.val_psnr:.2f} dB)"]
     for samples in (32, 16):                       # fewer samples?
-        if samples >= best.recipe.model.render.n_coarse or time.perf_counter() - t0 > cfg.time_budget:
+        if samples >= best.recipe.model.render.n_coarse or spent():
             continue
-        t = _trial(dataset, best.recipe.override(n_coarse=samples), "samples")
-        trials.append(t)
+        t = trial(best.recipe.override(n_coarse=samples), "samples")
         if t.val_psnr >= min(cfg.target_psnr, best.val_psnr - 0.1):
             reasons.append(f"{samples} samples per ray are enough ({t.val_psnr:.2f} dB)")
             best = t
@@ -134,27 +115,21 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
             reasons.append(f"{samples} samples per ray lose quality ({t.val_psnr:.2f} dB): keep "
                            f"{best.recipe.model.render.n_coarse}")
             break
-    if time.perf_counter() - t0 <= cfg.time_budget:    # view dependence has to earn its place
-        t = _trial(dataset, best.recipe.override(view_dependent=True), "view dependence")
-        trials.append(t)
+    if not spent():                                # view dependence has to earn its place
+        t = trial(best.recipe.override(view_dependent=True), "view dependence")
         gain = t.val_psnr - best.val_psnr
-        if gain >= cfg.vd_gain:
-            reasons.append(f"view dependence kept: +{gain:.2f} dB validation PSNR")
-            best = t
-        else:
-            reasons.append(f"view dependence dropped: it changed validation PSNR by {gain:+.2f} dB "
-                           f"(< {cfg.vd_gain} dB)")
-    for key, weight in cfg.regularisers:              # so does each regulariser
-        if time.perf_counter() - t0 > cfg.time_budget:
+        reasons.append(f"view dependence kept: +{gain:.2f} dB validation PSNR" if gain >= cfg.vd_gain else
+                       f"view dependence dropped: it changed validation PSNR by {gain:+.2f} dB (< {cfg.vd_gain} dB)")
+        best = t if gain >= cfg.vd_gain else best
+    for key, weight in cfg.regularisers:           # so does each regulariser
+        if spent():
             reasons.append(f"{key} not tried: the search budget is spent")
             continue
-        t = _trial(dataset, best.recipe.override(**{key: weight}), key)
-        trials.append(t)
+        t = trial(best.recipe.override(**{key: weight}), key)
         gain = t.val_psnr - best.val_psnr
         verb = "kept" if gain >= cfg.reg_gain else "dropped"
         reasons.append(f"{key} = {weight:g} {verb}: {gain:+.2f} dB validation PSNR (threshold {cfg.reg_gain} dB)")
-        if gain >= cfg.reg_gain:
-            best = t
+        best = t if gain >= cfg.reg_gain else best
     return AutoResult(best.recipe, trials, reached, reasons)
 
 
@@ -169,6 +144,7 @@ def choose_recipe(dataset: Dataset, base: Recipe, backend: str = "drjit",
     for key, _ in (cfg or AutoConfig()).regularisers:
         setattr(chosen.train, key, getattr(result.recipe.train, key))
     chosen.name = f"auto:{chosen.name}"
-    lines = [f"{t['family']} ({t['settings']}), {t['samples']} samples: {t['params']} parameters, "
-             f"validation {t['val_psnr']} dB [{t['note']}]" for t in result.table()]
+    lines = [f"{t.recipe.model.field} ({', '.join(f'{k}={v}' for k, v in t.recipe.model.field_args.items())}), "
+             f"{t.recipe.model.render.n_coarse} samples: {t.params} parameters, validation {round(t.val_psnr, 2)} dB "
+             f"[{t.note}]" for t in result.trials]
     return chosen.validate(), lines + result.reasons

@@ -1,16 +1,5 @@
-"""The backend contract: what an engine (Dr.Jit, torch) must do, and what they share.
-
-An engine implements the few things that differ (:class:`Backend`'s abstract methods):
-holding the model's parameters and its optimizer, one optimisation step, rendering one
-chunk of rays, the density at points, and converting weights and optimizer state
-to and from numpy. Everything else is written once here: the loss
-(:meth:`Backend.loss`: photometric MSE, the coarse pass, the fields' regularisers,
-DS-NeRF's depth term), the occupancy-grid updates, the chunked render loop and the
-state a checkpoint holds.
-
-Engines (:func:`mitnerf.train.engines.make_backend`): ``drjit`` (:mod:`.backend_drjit`, the
-library's own) and ``torch`` (:mod:`.backend_torch`, the reference twin; the ``torch`` extra).
-"""
+"""The backend contract: what an engine (:mod:`.backend_drjit`, :mod:`.backend_torch`) must do (:class:`Backend`'s
+abstract methods), and what they share: the loss, occupancy updates, chunked rendering, the checkpointed state."""
 
 from __future__ import annotations
 
@@ -22,9 +11,9 @@ from ..data.dataset import RaySet
 from ..rng import uniform_np
 from .config import ModelConfig, TrainConfig
 
+
 def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
-    """The fields of a model (``coarse``, and ``fine`` with a separate fine pass), built by
-    ``make_field(family, **args)`` of either engine."""
+    """The model's fields (``coarse``, and ``fine`` with a separate fine pass), built by the engine's ``make_field``."""
     args = {**cfg.field_args, "dim": dim, "bound": bound}
     fields = {"coarse": make_field(cfg.field, **args)}
     if cfg.render.n_fine > 0 and cfg.render.separate_fine:
@@ -33,22 +22,18 @@ def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
 
 
 def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, regularizer):
-    """The training loss from a render's outputs, written once for both engines: photometric
-    MSE of the final pass, ``coarse_weight`` x that of the coarse pass, the fields'
-    regularisers, ``depth_weight`` x DS-NeRF's KL term, ``distortion_weight`` x mip-NeRF 360's
-    distortion loss and ``opacity_weight`` x the opacity entropy. ``ops``: the engine's losses
-    (:mod:`mitnerf.train.losses` or its twin)."""
+    """The final pass's MSE, the fields' regularisers, and the coarse, depth, distortion and opacity terms
+    with their ``cfg`` weights; ``ops``: the engine's losses (:mod:`mitnerf.train.losses` or its twin)."""
     final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
     loss = ops.mse(final.rgb, target)
     if outs.get("fine") is not None and cfg.coarse_weight > 0:
         loss = loss + cfg.coarse_weight * ops.mse(outs["coarse"].rgb, target)
     if regularizer is not None:
         loss = loss + regularizer
+    t, delta = outs["samples"] if cfg.needs_weights else (None, None)
     if cfg.depth_weight > 0:
-        t, delta = outs["samples"]
         loss = loss + cfg.depth_weight * ops.depth_kl(final.weights, t, delta, depth, hit, n_final, cfg.depth_sigma)
     if cfg.distortion_weight > 0:
-        t, delta = outs["samples"]
         loss = loss + cfg.distortion_weight * ops.distortion(final.weights, t, delta, n_final)
     if cfg.opacity_weight > 0:
         loss = loss + cfg.opacity_weight * ops.opacity_entropy(final.opacity)
@@ -83,10 +68,8 @@ class Backend(ABC):
                  far: float):
         self.model_cfg, self.cfg = model_cfg, train_cfg
         self.dim, self.bound, self.near, self.far = dim, float(bound), float(near), float(far)
-        self.occupancy = None
-        self.n_pixels = 0
+        self.occupancy, self.n_pixels = None, 0
 
-    # ------------------------------------------------------------------ engine-specific
     @abstractmethod
     def set_data(self, rays: RaySet) -> None:
         """Hold the training rays (batches are drawn from them inside :meth:`step`)."""
@@ -127,16 +110,11 @@ class Backend(ABC):
     def _density_fn(self):
         """``points -> density`` in the engine's array type, without gradients (occupancy updates)."""
 
-    # ------------------------------------------------------------------ shared
     @property
     def n_final(self) -> int:
         """Samples per ray of the final pass."""
         r = self.model_cfg.render
         return r.n_coarse + max(r.n_fine, 0)
-
-    def loss(self, ops, outs: dict, target, depth, hit, regularizer):
-        """The training loss of a render's outputs (:func:`training_loss`)."""
-        return training_loss(self.cfg, self.n_final, ops, outs, target, depth, hit, regularizer)
 
     def update_occupancy(self, index: int, seed: int) -> None:
         occ = self.occupancy
@@ -164,8 +142,7 @@ class Backend(ABC):
         return out
 
     def get_weights(self) -> dict[str, np.ndarray]:
-        """Model parameters and the occupancy grid's state (what a checkpoint stores), as copies
-        (numpy views of Dr.Jit arrays may be reused by the next step)."""
+        """Model parameters and occupancy state (what a checkpoint stores), as copies: Dr.Jit reuses numpy views."""
         out = self.model_weights()
         if self.occupancy is not None:
             out.update({f"occupancy.{k}": v for k, v in self.occupancy.state().items()})

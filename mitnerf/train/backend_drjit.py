@@ -1,15 +1,9 @@
-"""The Dr.Jit engine: the model's parameters in ``drjit.opt.Adam`` and one frozen step.
-
-The step (draw a batch with the counter-based hash, render, :meth:`Backend.loss`,
-backward through the replayed volume integral, Adam) is recorded once with
-``dr.freeze`` and replayed; every value that changes between steps (seed, learning
-rate) enters as an opaque array, so it never bakes into a kernel.
-"""
+"""The Dr.Jit engine: ``drjit.opt.Adam`` and one step (batch, render, loss, backward, Adam) recorded
+once with ``dr.freeze`` and replayed; values that change between steps enter as opaque arrays."""
 
 from __future__ import annotations
 
 import gc
-from dataclasses import dataclass
 
 import drjit as dr
 import numpy as np
@@ -24,18 +18,6 @@ from ..render.pipeline import Model, final
 from ..rng import hash_u32, uniform
 from . import losses
 from .backend import Backend, model_fields, training_loss
-
-
-@dataclass
-class DeviceRays:
-    """A :class:`RaySet` as Dr.Jit arrays (a PyTree, so frozen steps see it as input)."""
-
-    origins: list
-    directions: list
-    target: list
-    depth: Float
-    hit: Float
-    footprint: list
 
 
 def columns(a: np.ndarray) -> list:
@@ -70,67 +52,57 @@ class DrJitBackend(Backend):
     def detached(self) -> dict:
         return {k: dr.detach(v) for k, v in self.params.items()}
 
-    # ------------------------------------------------------------------ training
     def set_data(self, rays: RaySet) -> None:
-        self.data = DeviceRays(columns(rays.origins), columns(rays.directions), columns(rays.target),
-                               Float(rays.depth), Float(rays.hit), columns(rays.footprint.reshape(len(rays), -1)))
+        # {name: columns}: a PyTree, so frozen steps see it as input
+        self.data = {k: columns(getattr(rays, k).reshape(len(rays), -1))
+                     for k in ("origins", "directions", "target", "depth", "hit", "footprint")}
         self.n_pixels = len(rays)
 
     def _new_step(self):
         gc.collect()
-        # auto_opaque=False: every input is opaque from the first recording on, so a changing
-        # value never bakes into a kernel (two recordings: before and after Adam has state)
-        freeze = self.cfg.freeze and all(getattr(f, "freezable", True) for f in self.model.fields.values())
-        return dr.freeze(self._make_step(), auto_opaque=False) if freeze else self._make_step()
-
-    def _make_step(self):
-        # the closure holds no reference to the backend: a cycle would be freed by the cyclic
-        # garbage collector at any moment, also while a frozen call records (see step())
+        # no reference to the backend in the closure: the cyclic GC could free it while a frozen call records
         model, cfg, n_final = self.model, self.cfg, self.n_final
         near, far, B = self.near, self.far, cfg.batch_rays
         use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
 
         def step(opt, data, n_pixels, seed, lr, occupied):
-            # Dr.Jit 1.5.0's Adam multiplies an array-valued learning rate *in place* by each
-            # parameter's bias correction (opt._LRCache.product: `scale_o *= arg`), so one
-            # shared array compounds across parameters: each parameter gets its own copy.
+            # Dr.Jit 1.5.0's Adam scales an array-valued learning rate *in place* by each parameter's bias
+            # correction (`scale_o *= arg`): a shared array would compound, so each parameter gets a copy
             opt.set_learning_rate({k: Float(lr) for k in opt.keys()})
             idx = hash_u32(hash_u32(seed) ^ dr.arange(UInt32, B)) % n_pixels
             g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
             params = {k: opt[k] for k in opt.keys()}
-            d = g(data.directions)
+            d = g(data["directions"])
             if jitter:                  # a ray through a random point of the pixel (twin: backend.jitter_np)
-                ray = dr.arange(UInt32, B)
-                a, b = (uniform(seed ^ 0x68E31DA4, ray, UInt32(k)) - 0.5 for k in (0, 1))
-                fp = g(data.footprint)
+                a, b = (uniform(seed ^ 0x68E31DA4, dr.arange(UInt32, B), UInt32(k)) - 0.5 for k in (0, 1))
+                fp = g(data["footprint"])
                 d = [d[i] + a * fp[i] + b * fp[D + i] for i in range(D)]
                 inv = dr.rsqrt(sum(di * di for di in d))
                 d = [di * inv for di in d]
-            outs = model.render(params, g(data.origins), d, near, far, seed, training=True, weights=use_weights,
+            outs = model.render(params, g(data["origins"]), d, near, far, seed, training=True, weights=use_weights,
                                 occupied=occupied)
-            loss = training_loss(cfg, n_final, losses, outs, g(data.target), dr.gather(Float, data.depth, idx),
-                                 dr.gather(Float, data.hit, idx), model.regularizer(params, seed))
+            loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), g(data["depth"])[0], g(data["hit"])[0],
+                                 model.regularizer(params, seed))
             dr.backward(loss)
             bad = [dr.count(~dr.isfinite(dr.grad(params[k]).array if dr.is_tensor_v(params[k])
                                          else dr.grad(params[k]))) for k in opt.keys()]
             opt.step()
             return loss, bad
 
-        return step
+        # auto_opaque=False: every input is opaque from the first recording on, so no changing value bakes into a kernel
+        freeze = cfg.freeze and all(getattr(f, "freezable", True) for f in model.fields.values())
+        return dr.freeze(step, auto_opaque=False) if freeze else step
 
     def step(self, index: int, seed: int, lr: float):
         new = self.model.schedule(index, self.params)
-        if new:                     # a resized parameter also resets its Adam state
-            for k, v in new.items():
-                self.opt[k] = v
-            # a fresh recording: replaying a frozen step after its inputs changed shape twice
-            # crashes Dr.Jit 1.5.0 (segmentation fault), so old recordings are dropped
+        if new:
+            self.opt.update(new)    # a resized parameter also resets its Adam state
+            # a fresh recording: replaying one after its inputs changed shape twice segfaults Dr.Jit 1.5.0
             self._frozen = self._new_step()
         self.update_occupancy(index, seed)
         occ = self.occupancy
-        # Dr.Jit 1.5.0 aborts the process ("enqueue_host_func(): this function cannot be
-        # recorded") when the garbage collector frees certain arrays while a frozen function
-        # records: collect first, and not during the call
+        # Dr.Jit 1.5.0 aborts ("enqueue_host_func(): this function cannot be recorded") when the garbage
+        # collector frees certain arrays while a frozen function records: collect first, and not during the call
         enabled = gc.isenabled()
         gc.disable()
         try:
@@ -142,21 +114,17 @@ class DrJitBackend(Backend):
 
     def read(self, handle) -> tuple[float, str | None]:
         loss, bad = handle
-        for k, n in zip(self.opt.keys(), bad):
-            if int(n[0]):
-                return float(loss[0]), f"the gradient of {k}"
         value = float(loss[0])
-        if np.isfinite(value):
-            for k, v in self.params.items():          # a parameter can overflow with finite gradients
-                if not dr.all(dr.isfinite(v.array if dr.is_tensor_v(v) else v)):
-                    return value, f"parameter {k}"
-        return value, None
+        bad = next((f"the gradient of {k}" for k, n in zip(self.opt.keys(), bad) if int(n[0])), None)
+        if bad is None and np.isfinite(value):      # a parameter can overflow with finite gradients
+            bad = next((f"parameter {k}" for k, v in self.params.items()
+                        if not dr.all(dr.isfinite(v.array if dr.is_tensor_v(v) else v))), None)
+        return value, bad
 
     def _density_fn(self):
         params = self.detached()
         return lambda x: self.model.density(params, x)
 
-    # ------------------------------------------------------------------ inference
     def render_chunk(self, origins: np.ndarray, directions: np.ndarray) -> dict:
         with dr.suspend_grad():
             occupied = self.occupancy.occupied if self.occupancy is not None else None
@@ -170,13 +138,11 @@ class DrJitBackend(Backend):
         with dr.suspend_grad():
             return np.asarray(self.model.density(self.detached(), columns(np.asarray(x, np.float32))))
 
-    # ------------------------------------------------------------------ state
     def model_weights(self) -> dict[str, np.ndarray]:
         return self.model.to_numpy(self.params)
 
     def load_model_weights(self, arrays: dict[str, np.ndarray]) -> None:
-        for k, v in self.model.from_numpy(arrays).items():
-            self.opt[k] = v
+        self.opt.update(self.model.from_numpy(arrays))
         self._frozen = self._new_step()             # shapes may have changed (a resized grid)
 
     def optimizer_state(self) -> dict[str, np.ndarray]:

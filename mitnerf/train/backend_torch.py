@@ -1,5 +1,4 @@
-"""The torch engine (the reference): the torch twin of the model, ``torch.optim.Adam``,
-and the same initial weights, batches and sample jitter as the Dr.Jit engine."""
+"""The torch engine (the reference twin): ``torch.optim.Adam``, the same initial weights, batches and jitter."""
 
 from __future__ import annotations
 
@@ -12,7 +11,7 @@ from ..reference.render.occupancy import OccupancyGrid
 from ..reference.render.pipeline import Model
 from ..reference.train import losses
 from ..rng import batch_indices
-from .backend import Backend, jitter_np, model_fields
+from .backend import Backend, jitter_np, model_fields, training_loss
 from .backend_drjit import build_model
 
 
@@ -30,20 +29,17 @@ class TorchBackend(Backend):
         self.model = build_torch_model(model_cfg, dim, bound)
         # the same initial weights as the Dr.Jit engine (both start from the fields' numpy init)
         self.model.load_numpy(build_model(model_cfg, dim, bound).init_numpy(train_cfg.seed))
-        self.opt = self._adam()
+        self.opt = None
+        self._rebuild_optimizer()
         occ = model_cfg.render.occupancy
         self.occupancy = OccupancyGrid(occ, dim, bound) if occ.enabled else None
 
-    def _adam(self):
-        c = self.cfg
-        return torch.optim.Adam(self.model.parameters(), lr=c.lr, betas=(c.beta1, c.beta2), eps=c.eps)
-
     def _rebuild_optimizer(self) -> None:
-        """After parameters were replaced: a new Adam that keeps the state of the others."""
-        old, self.opt = self.opt, self._adam()
-        for p in self.model.parameters():
-            if p in old.state:
-                self.opt.state[p] = old.state[p]
+        """A new Adam (after parameters were replaced) that keeps the state of the others."""
+        c, old = self.cfg, self.opt
+        self.opt = torch.optim.Adam(self.model.parameters(), lr=c.lr, betas=(c.beta1, c.beta2), eps=c.eps)
+        if old is not None:
+            self.opt.state.update({p: old.state[p] for p in self.model.parameters() if p in old.state})
 
     def set_data(self, rays: RaySet) -> None:
         self.data = {k: torch.from_numpy(np.ascontiguousarray(getattr(rays, k)))
@@ -63,7 +59,8 @@ class TorchBackend(Backend):
             d = torch.from_numpy(jitter_np(seed, d.numpy(), b["footprint"].numpy()).astype(np.float32))
         outs = self.model.render(b["origins"], d, self.near, self.far, seed, training=True,
                                  weights=self.cfg.needs_weights, occupancy=self.occupancy)
-        loss = self.loss(losses, outs, b["target"], b["depth"], b["hit"], self.model.regularizer(seed))
+        loss = training_loss(self.cfg, self.n_final, losses, outs, b["target"], b["depth"], b["hit"],
+                             self.model.regularizer(seed))
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
         bad = next((n for n, p in self.model.named_parameters()
@@ -76,17 +73,12 @@ class TorchBackend(Backend):
         value = float(loss.item())
         if bad is not None:
             return value, f"the gradient of {bad}"
-        if np.isfinite(value):
+        if np.isfinite(value):                      # a parameter can overflow with finite gradients
             bad = next((n for n, p in self.model.named_parameters() if not torch.isfinite(p).all()), None)
-            if bad is not None:
-                return value, f"parameter {bad}"
-        return value, None
+        return value, bad and f"parameter {bad}"
 
     def _density_fn(self):
-        def fn(x):
-            with torch.no_grad():
-                return self.model.density(x)
-        return fn
+        return torch.no_grad()(self.model.density)
 
     def render_chunk(self, origins: np.ndarray, directions: np.ndarray) -> dict:
         with torch.no_grad():

@@ -1,6 +1,4 @@
-"""Checkpoints you can trust: a versioned manifest and arrays with a hash each; never pickle.
-
-A checkpoint folder (the ``--out`` of ``mitnerf fit``)::
+"""Checkpoints you can trust (the ``--out`` folder of ``mitnerf fit``); never pickle::
 
     manifest.json   {"format": "mitnerf-checkpoint", "version": 2, "field", "dim", "backend",
                      "recipe", "bound", "near", "far", "dataset", "loop", "best", "metrics",
@@ -9,16 +7,11 @@ A checkpoint folder (the ``--out`` of ``mitnerf fit``)::
     state.npz       Adam's moments (engine-specific names) and the best weights: for --resume
     history.json    the loss and validation curves
 
-Loading checks everything before a single weight is used: the manifest's format and
-version (a newer format is refused, not guessed at), the field and dimension the caller
-needs, each array's presence, shape, dtype and SHA-256, and that every weight is finite.
-Any failure is one :class:`~mitnerf.errors.CheckpointError` line that says what is wrong.
-``.npz`` files are read with ``allow_pickle=False``.
-"""
+Loading checks the format and version (a newer one is refused), the field and dimension the caller needs,
+and each array's presence, shape, dtype, SHA-256 and finiteness; a failure raises one ``CheckpointError``."""
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import io
 import json
@@ -87,7 +80,7 @@ def read_manifest(path: str | Path) -> dict:
     if not isinstance(m, dict) or m.get("format") != FORMAT:
         raise CheckpointError(f"{f} is not a mitnerf checkpoint manifest; pass the --out folder of `mitnerf fit`")
     version = m.get("version")
-    if not isinstance(version, int) or isinstance(version, bool):
+    if type(version) is not int:                # JSON: not a bool, a float or a string
         raise CheckpointError(f"{f} has no valid format version; the checkpoint was edited: refit it")
     if version > VERSION:
         raise CheckpointError(f"{path} was written by a newer mitnerf (checkpoint format {version}, this one reads "
@@ -97,22 +90,15 @@ def read_manifest(path: str | Path) -> dict:
     try:
         assert m["dim"] in (2, 3) and isinstance(m["field"], str) and isinstance(m["arrays"], dict)
         assert all(isinstance(v, dict) and all(isinstance(e, dict) for e in v.values()) for v in m["arrays"].values())
-        for key in ("bound", "near", "far"):
-            assert isinstance(m[key], (int, float)) and not isinstance(m[key], bool) and math.isfinite(m[key])
+        assert all(type(m[k]) in (int, float) and math.isfinite(m[k]) for k in ("bound", "near", "far"))
         assert m["bound"] > 0 and 0 <= m["near"] < m["far"]
-        m["recipe"] = Recipe.from_dict(m["recipe"])
-        assert m["recipe"].model.field == m["field"] and m["recipe"].dim == m["dim"]
-        assert isinstance(m["recipe"].name, str)
-        loop = m["loop"]
-        assert isinstance(loop, dict)
-        step, train_time = loop["step"], loop["train_time"]
-        assert isinstance(step, int) and not isinstance(step, bool) and step >= 0
-        assert isinstance(train_time, (int, float)) and not isinstance(train_time, bool)
+        r = m["recipe"] = Recipe.from_dict(m["recipe"])
+        assert r.model.field == m["field"] and r.dim == m["dim"] and isinstance(r.name, str)
+        step, train_time = m["loop"]["step"], m["loop"]["train_time"]     # a list or string: TypeError
+        assert type(step) is int and step >= 0 and type(train_time) in (int, float)
         assert math.isfinite(train_time) and train_time >= 0
-        for key in ("dataset", "best", "metrics"):
-            assert isinstance(m.get(key, {}), dict)
-        for key in ("path", "mesh", "texture", "scene"):
-            assert isinstance(m.get("dataset", {}).get(key, ""), str)
+        assert all(isinstance(m.get(key, {}), dict) for key in ("dataset", "best", "metrics"))
+        assert all(isinstance(m.get("dataset", {}).get(key, ""), str) for key in ("path", "mesh", "texture", "scene"))
     except (AssertionError, KeyError, TypeError, ValueError, AttributeError):
         raise CheckpointError(f"{f} is incomplete or was edited (a missing or malformed entry); refit it") from None
     try:
@@ -156,10 +142,8 @@ def read_arrays(path: Path, name: str, listed: dict) -> dict[str, np.ndarray]:
 
 def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str | None = None,
                     dim: int | None = None, need: str | None = None) -> tuple[Run, dict]:
-    """Rebuild a checkpoint's model (in its own engine unless ``backend`` says otherwise).
-
-    ``field`` / ``dim``: what the caller needs (``need`` names the caller in the error).
-    Returns the :class:`Run` and the resume state (optimizer, loop state, best weights)."""
+    """Rebuild a checkpoint's model (in its own engine unless ``backend`` says otherwise); ``field`` / ``dim``: what
+    the caller (``need``, named in errors) needs. Returns the :class:`Run` and the resume state (optimizer, loop)."""
     path = Path(path)
     m = read_manifest(path)
     who = need or "this command"
@@ -198,19 +182,10 @@ def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str 
         raise CheckpointError(f"{path}: state.npz holds optimizer state that does not fit the model its manifest "
                               "describes (Adam keeps two moments per parameter); the checkpoint was edited: refit it")
     try:
-        history = json.loads((path / "history.json").read_text())
-        assert isinstance(history, dict)
-    except (OSError, ValueError, AssertionError):
+        history = {**new_history(), **json.loads((path / "history.json").read_text())}
+    except (OSError, ValueError, TypeError):                 # TypeError: not a JSON object
         history = new_history()
-    loop = LoopState(int(m["loop"].get("step", 0)), float(m["loop"].get("train_time", 0.0)),
-                     {**new_history(), **history})
+    loop = LoopState(int(m["loop"]["step"]), float(m["loop"]["train_time"]), history)
     run = Run(be, recipe, dict(m.get("dataset") or {}), loop, dict(m.get("best") or {}))
-    resume = {"weights": weights, "optimizer": optim,
-              "state": loop, "best": run.best, "best_weights": best or None, "backend": m["backend"],
-              "metrics": m.get("metrics", {})}
-    return run, resume
-
-
-def config_dict(run: Run) -> dict:
-    """The recipe of a run as plain data (for reports)."""
-    return {"recipe": run.recipe.to_dict(), "train": dataclasses.asdict(run.recipe.train)}
+    return run, {"weights": weights, "optimizer": optim, "state": loop, "best": run.best, "best_weights": best or None,
+                 "backend": m["backend"], "metrics": m.get("metrics", {})}

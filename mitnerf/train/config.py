@@ -1,9 +1,5 @@
-"""What a training run is made of: the model (field + rendering) and the optimisation.
-
-Values are written in one place only, the recipes (:mod:`.recipes`); the defaults here
-are neutral starting points that every recipe overrides. ``validate()`` refuses values
-that cannot work, with the fix, before any kernel is built.
-"""
+"""A training run's model (field + rendering) and optimisation; values are written only in :mod:`.recipes`.
+``validate()`` refuses values that cannot work, with the fix, before any kernel is built."""
 
 from __future__ import annotations
 
@@ -13,15 +9,6 @@ from dataclasses import dataclass
 from ..errors import check_number as check
 from ..fields import field_config
 from ..render.pipeline import RenderConfig
-
-
-def lr_schedule(lr: float, lr_final: float, warmup: int, progress: float, step: int) -> float:
-    """Exponential decay from ``lr`` to ``lr_final`` over ``progress`` in [0, 1], times a linear
-    warm-up from ``lr / 10`` over the first ``warmup`` steps."""
-    lr = lr * (lr_final / lr) ** min(max(progress, 0.0), 1.0)
-    if step < warmup:
-        lr *= 0.1 + 0.9 * step / warmup
-    return lr
 
 
 @dataclass
@@ -95,8 +82,10 @@ class TrainConfig:
     """Show a progress bar."""
 
     def lr_at(self, progress: float, step: int) -> float:
-        """Learning rate after ``progress`` in [0, 1] of the run (``step`` for the warm-up)."""
-        return lr_schedule(self.lr, self.lr_final, self.warmup, progress, step)
+        """Learning rate after ``progress`` in [0, 1] of the run: exponential decay from ``lr`` to
+        ``lr_final``, times a linear warm-up from ``lr / 10`` over the first ``warmup`` steps."""
+        lr = self.lr * (self.lr_final / self.lr) ** min(max(progress, 0.0), 1.0)
+        return lr * (0.1 + 0.9 * step / self.warmup) if step < self.warmup else lr
 
     @property
     def needs_weights(self) -> bool:

@@ -1,17 +1,7 @@
-"""One evaluation for every caller: ``evaluate(...) -> RunRecord``.
-
-A :class:`RunRecord` holds what a run is judged by: test PSNR and SSIM, the depth error
-on pixels whose ray hits the object, geometry (2D: the IoU of the field's solid with the
-true outline, :mod:`mitnerf.geometry.outline`; 3D: the Chamfer distance of its mesh to
-the true mesh), time, and one status from :func:`classify`, the only definition of a
-failed run in mitnerf:
-
-* ``nan``: a render or the loss is not finite;
-* ``collapsed``: the field is *empty* where the object is (mean opacity on pixels whose
-  ground-truth coverage exceeds 0.5 is below ``EMPTY_OPACITY``), or its renders are
-  *constant* (standard deviation below ``CONSTANT_STD`` while the target varies);
-* ``ok`` otherwise.
-"""
+"""One evaluation for every caller: ``evaluate(...) -> RunRecord``, with one status from :func:`classify`,
+the only definition of a failed run in mitnerf: ``nan`` (a render or the loss is not finite), ``collapsed``
+(*empty*: mean opacity below ``EMPTY_OPACITY`` on pixels whose ground-truth coverage exceeds 0.5, or
+*constant*: render standard deviation below ``CONSTANT_STD`` while the target varies), else ``ok``."""
 
 from __future__ import annotations
 
@@ -31,7 +21,6 @@ EMPTY_OPACITY = 0.1
 """Mean opacity on the object's pixels below which a field counts as empty."""
 CONSTANT_STD = 1e-3
 """Standard deviation of the renders below which they count as constant."""
-STATUSES = ("ok", "collapsed", "nan", "failed")
 
 
 @dataclass
@@ -94,22 +83,17 @@ def classify(rgb: np.ndarray, opacity: np.ndarray, split: Split, background) -> 
 
 
 def render_split(backend, split: Split) -> tuple[dict, float]:
-    """Renders of every view of ``split`` shaped ``[n, H, W, ...]`` (``eval_spp`` rays per
-    pixel), and the seconds they took."""
+    """Renders of ``split``'s views ``[n, H, W, ...]`` (``eval_spp`` rays per pixel), and the seconds taken."""
     o, d = split.cameras.rays()
-    D = o.shape[-1]
-    t0 = time.perf_counter()
+    D, t0 = o.shape[-1], time.perf_counter()
     out = backend.render(o.reshape(-1, D), d.reshape(-1, D), footprint=split.cameras.footprint().reshape(-1, 2, D),
                          spp=backend.model_cfg.render.eval_spp)
     elapsed = time.perf_counter() - t0
-    shape = o.shape[:-1]
-    return {"rgb": out["rgb"].reshape(*shape, 3), "depth": out["depth"].reshape(shape),
-            "opacity": out["opacity"].reshape(shape)}, elapsed
+    return {k: v.reshape(*o.shape[:-1], *v.shape[1:]) for k, v in out.items()}, elapsed
 
 
 def geometry(backend, dataset: Dataset, bound: float, resolution: int | None = None) -> dict:
     """IoU (2D, when the dataset knows its outline) or Chamfer distance (3D, when it knows its mesh)."""
-
     meta = dataset.meta
     if dataset.dim == 2 and meta.get("polygon") is not None:
         return {"iou": outline_iou(backend.density, np.asarray(meta["polygon"]), bound, resolution or 256)}

@@ -1,15 +1,8 @@
-"""Fitting a field to a dataset: ``fit(dataset, recipe, backend) -> Run``.
-
-The training split is turned into rays, the backend of the chosen engine is built from
-the recipe, and :func:`~mitnerf.train.loop.run_loop` trains it. Every ``val_every``
-steps a few validation views are rendered: their PSNR is recorded, a field that has
-*collapsed* (:func:`~mitnerf.train.evaluate.classify`) stops the run, and the best
-validation's weights are kept; with ``keep_best`` the run ends with them (and says so
-in :attr:`Run.notes`). A NaN stops the run with the weights of the last good
-validation restored; Ctrl-C or SIGTERM stops it after a whole step. Both exceptions
-carry the :class:`Run`, so the caller can write a checkpoint (:mod:`.checkpoint`) and,
-after an interruption, resume it with :func:`fit` and ``resume=`` the saved state.
-"""
+"""Fitting a field to a dataset: ``fit(dataset, recipe, backend) -> Run``. Every ``val_every`` steps a few
+validation views give a PSNR, stop a *collapsed* field (:func:`~mitnerf.train.evaluate.classify`) and keep the
+best weights (the end weights with ``keep_best``, said in :attr:`Run.notes`). A NaN restores the last good
+validation's weights. :class:`TrainingFailed` and :class:`Interrupted` (Ctrl-C, SIGTERM) carry the :class:`Run`
+so it can be saved and resumed."""
 
 from __future__ import annotations
 
@@ -56,26 +49,17 @@ class Run:
 
 def check_dataset(dataset: Dataset, need_test: bool = True) -> None:
     """Refuse, before training, a dataset that training or evaluation would fail on."""
-    if "train" not in dataset.splits or len(dataset["train"]) == 0:
+    if not dataset.splits.get("train"):
         raise DataError("the dataset has no training views; add views to its train split")
-    if need_test and ("test" not in dataset.splits or len(dataset["test"]) == 0):
+    if need_test and not dataset.splits.get("test"):
         raise DataError("the dataset has no test views, so the fit could not be evaluated; "
                         "add a test split (e.g. `mitnerf dataset --test 20`)")
 
 
-def validation_views(dataset: Dataset, n: int):
-    val = dataset.splits.get("val")
-    if val is None or len(val) == 0:
-        return None
-    return val.subset(np.linspace(0, len(val) - 1, min(n, len(val))).astype(int))
-
-
 def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dict | None = None,
         progress: bool | None = None) -> Run:
-    """Train ``recipe`` on ``dataset['train']`` with engine ``backend``; see the module docstring.
-
-    ``resume``: what :func:`~mitnerf.train.checkpoint.load_state` returned for an
-    interrupted run of the same recipe, which then continues where it stopped."""
+    """Train ``recipe`` on ``dataset['train']`` with engine ``backend`` (see the module docstring);
+    ``resume``: the state :func:`~mitnerf.train.checkpoint.load_checkpoint` returned, to continue it."""
     recipe.validate()
     if recipe.model.field in CONDITIONED:
         raise ConfigError(f"a {recipe.model.field} field renders from input views and trains across scenes; "
@@ -87,17 +71,17 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     cfg = recipe.train
     if progress is not None:
         cfg.progress = progress
-    recipe.model.render.background = tuple(recipe.model.render.background)
+    bg = recipe.model.render.background = tuple(recipe.model.render.background)
     be = make_backend(backend, recipe.model, cfg, dataset.dim, dataset.bound, dataset.near, dataset.far)
-    be.set_data(dataset["train"].rays(recipe.model.render.background))
+    be.set_data(dataset["train"].rays(bg))
     run = Run(be, recipe, dict(dataset.meta))
     if resume is not None:
         be.set_weights(resume["weights"])
         be.load_optimizer_state(resume["optimizer"])
         run.state, run.best = resume["state"], dict(resume.get("best", {}))
         run.snapshot = resume.get("best_weights")
-    val = validation_views(dataset, cfg.val_views)
-    bg = tuple(recipe.model.render.background)
+    val = dataset.splits.get("val")             # a few validation views, evenly spread
+    val = val.subset(np.linspace(0, len(val) - 1, min(cfg.val_views, len(val))).astype(int)) if val else None
 
     def validate(step: int) -> None:
         r, _ = render_split(be, val)
@@ -107,10 +91,8 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
                                  "(--set density_activation=softplus), a lower --lr or a longer warm-up",
                                  status, step)
         value = psnr(r["rgb"], val.target(bg))
-        h = run.state.history
-        h["val_step"].append(step)
-        h["val_time"].append(run.state.train_time)
-        h["val_psnr"].append(value)
+        for key, v in (("val_step", step), ("val_time", run.state.train_time), ("val_psnr", value)):
+            run.state.history[key].append(v)
         if np.isfinite(value) and value > run.best.get("val_psnr", -np.inf):
             run.best = {"step": step, "val_psnr": value}
             run.snapshot = be.get_weights()
@@ -118,14 +100,11 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     try:
         run_loop(be.step, be.read, cfg, run.state, validate if val is not None else None,
                  desc=f"fit {recipe.name} ({be.name})")
-    except TrainingFailed as exc:
-        if run.snapshot is not None:
+    except (TrainingFailed, Interrupted) as exc:
+        if isinstance(exc, TrainingFailed) and run.snapshot is not None:
             be.set_weights(run.snapshot)
             exc.args = (f"{exc.args[0]}; kept the weights of step {run.best['step']} "
                         f"(validation {run.best['val_psnr']:.2f} dB)",)
-        exc.run = run
-        raise
-    except Interrupted as exc:
         exc.run = run
         raise
     if val is not None and run.state.history["val_step"][-1:] != [run.state.step]:
@@ -147,7 +126,6 @@ def fit_and_evaluate(dataset: Dataset, recipe: Recipe, backend: str = "drjit", s
         run = fit(dataset, recipe, backend, progress=False)
         return run, run.record(dataset, split, geometry_metrics=geometry_metrics)
     except TrainingFailed as exc:
-        run = exc.run
-        rec = RunRecord(status=exc.status, reason=str(exc), train_time=run.state.train_time, steps=run.state.step,
-                        recipe=recipe.name)
-        return run, evaluate(run.backend, dataset, split, geometry_metrics=geometry_metrics, record=rec)
+        rec = exc.run.record(dataset, split, geometry_metrics=geometry_metrics)
+        rec.status, rec.reason = exc.status, str(exc)
+        return exc.run, rec

@@ -1,16 +1,7 @@
-"""The one training loop: clock, learning-rate schedule, NaN guard, validation, Ctrl-C.
-
-:func:`run_loop` drives any step function (a field fitted to one scene, pixelNeRF across
-scenes). Losses are read back every few steps (a read forces the asynchronous Dr.Jit
-queue to finish, so the clock is honest at that point); the learning rate follows
-:func:`~mitnerf.train.config.lr_schedule` over the steps, or over the clock when a time
-budget is set, whichever is further along. Validation time is not training time.
-
-* A NaN or infinite loss, gradient or parameter stops the loop with
-  :class:`TrainingFailed` naming the step, the quantity and a fix.
-* SIGINT (Ctrl-C) or SIGTERM lets the step in flight finish, then raises
-  :class:`Interrupted`; the state is then consistent and can be saved and resumed.
-"""
+"""The one training loop: clock, learning-rate schedule, NaN guard, validation, Ctrl-C. The learning rate
+follows the steps, or the clock under a time budget, whichever is further along; validation time is not
+training time. A NaN or infinite loss, gradient or parameter raises :class:`TrainingFailed`; SIGINT or
+SIGTERM lets the step in flight finish, then raises :class:`Interrupted`."""
 
 from __future__ import annotations
 
@@ -62,8 +53,7 @@ class LoopState:
 
 @contextlib.contextmanager
 def deferred_signals():
-    """Record SIGINT/SIGTERM instead of raising at once (a second Ctrl-C stops immediately);
-    yields a list that holds the first signal number received."""
+    """Record SIGINT/SIGTERM instead of raising (a second Ctrl-C stops at once); yields a list of the signals."""
     got: list[int] = []
     if threading.current_thread() is not threading.main_thread():
         yield got
@@ -84,11 +74,8 @@ def deferred_signals():
 
 def run_loop(step_fn: Callable, read_fn: Callable, cfg: TrainConfig, state: LoopState,
              validate: Callable[[int], None] | None = None, desc: str = "fit", read_every: int = 10) -> LoopState:
-    """Take steps from ``state.step`` until ``cfg.iters`` steps or ``cfg.time_budget`` seconds.
-
-    ``step_fn(index, seed, lr) -> handle`` takes one step; ``read_fn(handle) -> (loss, bad)``
-    reads its loss and names a non-finite quantity (or None). ``validate(step)`` runs every
-    ``cfg.val_every`` steps. Updates and returns ``state``."""
+    """Step ``step_fn(index, seed, lr) -> handle`` from ``state.step`` to ``cfg.iters`` or ``cfg.time_budget``;
+    ``read_fn(handle) -> (loss, name of a non-finite quantity or None)``; ``validate(step)`` every ``val_every``."""
     budget, h = cfg.time_budget, state.history
     pending: list = []
     bar = tqdm(total=budget if budget is not None else cfg.iters, desc=desc, leave=False,
@@ -105,9 +92,8 @@ def run_loop(step_fn: Callable, read_fn: Callable, cfg: TrainConfig, state: Loop
                 raise TrainingFailed(f"{what} became NaN or infinite at step {k}; lower the learning rate "
                                      f"(--lr, now {cfg.lr:g}) or use a softplus density "
                                      "(--set density_activation=softplus)", "nan", k)
-            h["step"].append(k)
-            h["loss"].append(value)
-            h["time"].append(state.train_time)
+            for key, v in (("step", k), ("loss", value), ("time", state.train_time)):
+                h[key].append(v)
         pending = []
         now = time.perf_counter()
         state.train_time += now - t_last

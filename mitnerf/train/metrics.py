@@ -24,8 +24,7 @@ def ssim(pred: np.ndarray, target: np.ndarray) -> float:
 
 
 def depth_error(depth: np.ndarray, opacity: np.ndarray, gt: np.ndarray, mask: np.ndarray) -> float:
-    """Mean absolute error of the termination depth (``sum w t / sum w``) on pixels whose
-    pixel-centre ray hits the object."""
+    """Mean absolute error of the termination depth (``sum w t / sum w``) on the pixels in ``mask``."""
     if not mask.any():
         return float("nan")
     d = depth[mask] / np.maximum(opacity[mask], 1e-6)

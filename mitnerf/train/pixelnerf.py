@@ -1,19 +1,10 @@
-"""Training a 2D pixelNeRF across scenes (with the one loop), and rendering it from a few views.
-
-One step (:class:`PixelTrainer.step`): from the step's seed pick a scene, a number of input
-views ``k`` in ``k_range``, ``k`` random views of that scene as the context, and
-``batch_rays`` target rays from its *other* views; render them with
-:func:`mitnerf.render.volume.volume_render` (stratified, jittered samples) and take an
-Adam step on the photometric MSE. The clock, the learning-rate schedule and the NaN
-guard are :func:`mitnerf.train.loop.run_loop`'s. With a frozen encoder the features of
-every view are computed once. Shapes change with ``k``, so steps are traced, not frozen
-(Dr.Jit's kernel cache makes the repeats cheap); values that change between steps enter
-as opaque arrays.
-"""
+"""Training a 2D pixelNeRF across scenes (with the one loop), and rendering it from a few views. A step
+picks, from its seed, a scene, ``k`` in ``k_range`` of its views as the context and ``batch_rays`` target
+rays from its *other* views. Shapes change with ``k``, so steps are traced, not frozen."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import drjit as dr
 import numpy as np
@@ -79,14 +70,11 @@ def pick_views(cameras: Cameras, k: int, start: int = 0) -> np.ndarray:
     """Indices of ``k`` cameras whose angles around the origin are nearest to ``k`` evenly
     spaced angles starting at camera ``start``'s (each camera used once)."""
     ang = np.arctan2(cameras.origins[:, 1], cameras.origins[:, 0])
-    free = np.ones(len(ang), bool)
-    out = []
+    out: list[int] = []
     for g in ang[start] + 2 * np.pi * np.arange(k) / k:
         dist = np.abs((ang - g + np.pi) % (2 * np.pi) - np.pi)
-        dist[~free] = np.inf
-        j = int(np.argmin(dist))
-        free[j] = False
-        out.append(j)
+        dist[out] = np.inf
+        out.append(int(np.argmin(dist)))
     return np.array(out)
 
 
@@ -143,8 +131,7 @@ class PixelTrainer:
         parts = []
         with dr.suspend_grad():
             if context.features is None:      # encode the context once, not per chunk
-                fld.context = Context(context.images, context.cams, context.n_views, context.height, context.focal,
-                                      fld.features(params, context))
+                fld.context = replace(context, features=fld.features(params, context))
             for s in range(0, len(origins), chunk):
                 out = volume_render(fld, params, columns(origins[s:s + chunk]), columns(directions[s:s + chunk]),
                                     dr.opaque(Float, near), dr.opaque(Float, far),

@@ -1,13 +1,5 @@
-"""Recipes: THE place where hyperparameters are written.
-
-A recipe is a named, tuned training run for one field family in one dimension: the
-field's settings, how rays are sampled and integrated, and how long and how fast to
-optimise. ``mitnerf fit --data DIR`` trains :func:`default_recipe` of the dataset's
-dimension, ``--field F`` the family's recipe, ``--recipe NAME`` any recipe; every other
-flag overrides one setting (:meth:`Recipe.override`). The experiments, the sweep and
-``fit --auto`` start from these recipes too. ``mitnerf recipes`` lists them beside the
-figures measured by the benchmarks (``results.json``).
-"""
+"""Recipes: THE place where hyperparameters are written; a recipe is a named, tuned training run
+(field settings, sampling, optimisation) for one field family in one dimension."""
 
 from __future__ import annotations
 
@@ -50,18 +42,13 @@ class Recipe:
                    d.get("about", ""))
 
     def override(self, **settings) -> "Recipe":
-        """A copy with some settings replaced. Keys are a :class:`TrainConfig` field
-        (``lr``), a :class:`RenderConfig` field (``n_coarse``), ``occupancy.<field>``, or a
-        setting of the field family (``width``); ``None`` values are ignored."""
+        """A copy with some settings replaced: a :class:`TrainConfig` or :class:`RenderConfig` field,
+        ``occupancy.<field>`` or a setting of the field family (``width``); ``None`` values are ignored."""
         out = self.copy()
-        train_keys = set(TrainConfig.__dataclass_fields__)
-        render_keys = set(RenderConfig.__dataclass_fields__) - {"occupancy"}
-        for key, value in settings.items():
-            if value is None:
-                continue
-            if key in train_keys:
+        for key, value in ((k, v) for k, v in settings.items() if v is not None):
+            if key in TrainConfig.__dataclass_fields__:
                 setattr(out.train, key, value)
-            elif key in render_keys:
+            elif key in RenderConfig.__dataclass_fields__ and key != "occupancy":
                 setattr(out.model.render, key, tuple(value) if key == "background" else value)
             elif key.startswith("occupancy."):
                 sub = key.split(".", 1)[1]
@@ -77,8 +64,7 @@ class Recipe:
     def essence(self) -> dict:
         """The settings that change what is trained (not progress bars or thread counts)."""
         d = self.to_dict()
-        for key in ("progress", "threads"):
-            d["train"].pop(key)
+        d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads")}
         return {k: v for k, v in d.items() if k not in ("name", "about")}
 
     def validate(self) -> "Recipe":

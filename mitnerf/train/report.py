@@ -1,5 +1,4 @@
-"""What ``mitnerf fit --out DIR`` writes: the checkpoint, ``metrics.json`` and the pictures
-(loss and validation curves, test views beside ground truth, the depth strip, the density)."""
+"""What ``mitnerf fit --out DIR`` writes: the checkpoint, ``metrics.json``, curves, test views, depth, density."""
 
 from __future__ import annotations
 
