@@ -1,14 +1,9 @@
-"""Geometry of a learned field: isosurface meshes and how far they are from the truth.
+"""Geometry of a learned field and how far it is from the truth: :mod:`.mesh`, the ``density == level``
+surface by marching cubes (``extract_mesh``) and the Chamfer distance between two triangle meshes
+(``chamfer_distance``); :mod:`.outline`, the solid of a 2D field and its IoU with the true outline."""
 
-* :mod:`.mesh`: sample a density on a grid over the cube ``[-b, b]^3`` and extract the
-  ``density == level`` surface with marching cubes (``extract_mesh``), save it as PLY.
-* :mod:`.chamfer`: the Chamfer distance between two triangle meshes (area-weighted
-  surface samples, nearest neighbours with a k-d tree).
-"""
-
-from .chamfer import ChamferResult, chamfer_distance, sample_surface
-from .mesh import (LEVEL, Mesh, auto_level, density_volume, extract_mesh, level_for_opacity, mesh_from_grid,
-                   mesh_from_ply)
+from .mesh import (LEVEL, ChamferResult, Mesh, auto_level, chamfer_distance, density_volume, extract_mesh,
+                   level_for_opacity, mesh_from_grid, mesh_from_ply, sample_surface)
 
 __all__ = ["LEVEL", "ChamferResult", "Mesh", "auto_level", "chamfer_distance", "density_volume", "extract_mesh",
            "level_for_opacity", "mesh_from_grid", "mesh_from_ply", "sample_surface"]

@@ -1,46 +1,23 @@
-"""Isosurface meshes of a learned density, by marching cubes.
+"""Isosurface meshes of a learned density, by marching cubes, and Chamfer distances between meshes.
 
-A radiance field has no surface, only a density ``sigma(x)``; the mesh of an object is
-the surface ``sigma(x) == level``. ``extract_mesh`` samples ``sigma`` on a regular grid
-of ``resolution^3`` nodes spanning the cube ``[-b, b]^3`` (node spacing
-``h = 2 b / (resolution - 1)``), then runs scikit-image's ``measure.marching_cubes``::
+A field's surface is ``sigma(x) == level``. ``extract_mesh`` samples ``density`` (any callable ``points [m, 3]
+float32 -> [m]``) on ``resolution^3`` nodes spanning ``[-b, b]^3`` (spacing ``h = 2 b / (resolution - 1)``) and
+runs scikit-image's ``measure.marching_cubes``. Vertices are in world units; faces are wound counter-clockwise
+seen from the low-density side (normals out: a closed mesh has positive signed volume). ``close=True`` pads the
+grid with one layer of empty space, so matter that reaches the cube's faces is capped there.
 
-    from mitnerf.geometry import extract_mesh
-    mesh = extract_mesh(run.backend.density, bound=run.bound, resolution=128, level=10.0)
-    mesh.save("vase.ply")            # binary PLY: Mitsuba, VTK/pyvista and read_ply read it
+Level: a slab ``t`` thick at density ``sigma`` stops ``1 - exp(-sigma t)`` of a ray (:func:`level_for_opacity`);
+higher levels shrink the mesh towards the dense core, lower ones inflate it; ``'auto'`` is :func:`auto_level`.
+When no surface exists at ``level``, the error names the range the densities span.
 
-``density`` is any callable ``points [m, 3] (float32) -> [m]`` (``run.backend.density``
-of either backend, or an analytic function). It is evaluated in chunks of about
-``chunk`` points, with a progress bar. Vertices come back in world units; faces are
-wound counter-clockwise seen from the low-density side, so normals point out of the
-object and the signed volume of a closed mesh is positive.
-
-Choosing the level
-------------------
-Volume rendering turns density into opacity: a slab of thickness ``t`` at density
-``sigma`` stops a ray with probability ``1 - exp(-sigma t)``. The surface a viewer sees
-is where rays become opaque, so pick ``level`` such that a thin layer is already
-opaque: ``level_for_opacity(0.5, t) = ln 2 / t``. With the renderer's sample spacing
-``t = (far - near) / n_samples`` (about 2 / 64 = 0.03 for our 3D rigs) that is about
-22; the default ``level = 10`` (half the light gone after 0.07 units) is the usual
-NeRF choice and a little generous with thin parts. Higher levels shrink the mesh
-towards the dense core and drop faint floaters; lower ones inflate it.
-``level='auto'`` chooses a level from the field itself: Otsu's threshold (the split of
-a histogram into two classes with the least within-class variance) of ``log10(sigma)``
-over the grid nodes that are not empty (``sigma > 1e-3``), i.e. the density that best
-separates haze from matter. It needs no knowledge of the renderer and follows fields
-that are not yet sharp (an undertrained vase whose densities peak near 10 gets ~0.1,
-where 1 would fit best), but it is a heuristic: compare it with fixed levels when the
-mesh looks too fat or too thin.
-When no surface exists at ``level`` (every grid density is above or below it) the
-error names the range the densities span.
-
-``close=True`` (default) pads the grid with one layer of empty space, so matter that
-reaches the cube's faces is capped there and the mesh stays closed.
+Chamfer: the symmetric mean of unsquared nearest-neighbour distances (the "L1" Chamfer distance) between ``N``
+points sampled uniformly by area on each mesh (``numpy.random.default_rng(seed)``), in world units. Two samplings
+of the same surface of area ``S`` lie ``0.5 * sqrt(S / N)`` apart on average: differences well above that are real.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -52,10 +29,8 @@ from ..errors import MitnerfError
 from ..scenes.ply import read_ply, write_ply
 
 LEVEL = 3.0
-"""The density taken as the surface of matter by mitnerf's geometry metrics (IoU, Chamfer) and
-``mitnerf video``'s mesh: half the light is gone after 0.23 units, a few percent of our
-scenes' size. Grid fields spread a surface over a few voxels and peak near 10-30, so the
-usual NeRF level 10 cuts holes into them."""
+"""The density taken as the surface of matter by the geometry metrics (IoU, Chamfer) and ``mitnerf video``'s mesh:
+half the light is gone after 0.23 units. Grid fields peak near 10-30, so the usual NeRF level 10 cuts holes."""
 
 
 @dataclass
@@ -137,24 +112,17 @@ def level_for_opacity(opacity: float, thickness: float) -> float:
     return float(-np.log1p(-opacity) / thickness)
 
 
-def grid_axis(bound: float, resolution: int) -> np.ndarray:
-    """Node coordinates along one axis: ``resolution`` points from ``-bound`` to ``bound``."""
-    return np.linspace(-bound, bound, resolution)
-
-
 def density_volume(density: Callable[[np.ndarray], np.ndarray], bound: float, resolution: int = 128,
                  center=(0.0, 0.0, 0.0), chunk: int = 1 << 18, progress: bool = True) -> np.ndarray:
-    """Densities at the grid nodes, ``[R, R, R]`` float32 indexed ``[ix, iy, iz]``.
-
-    Node ``(i, j, k)`` sits at ``center + (a[i], a[j], a[k])`` with ``a = grid_axis(bound, R)``.
-    Evaluated in x-slabs of about ``chunk`` points each.
-    """
+    """Densities at the grid nodes, ``[R, R, R]`` float32 indexed ``[ix, iy, iz]``: node ``(i, j, k)``
+    sits at ``center + (a[i], a[j], a[k])``, ``a = linspace(-bound, bound, R)``. Evaluated in x-slabs
+    of about ``chunk`` points each."""
     if resolution < 2:
         raise MitnerfError(f"grid resolution must be at least 2, got {resolution}; use 128")
     if not bound > 0:
         raise MitnerfError(f"bound must be positive, got {bound}; pass the half-width of the object's cube")
     R = int(resolution)
-    a = grid_axis(bound, R)
+    a = np.linspace(-bound, bound, R)
     Y, Z = np.meshgrid(a, a, indexing="ij")                          # [R, R] each
     yz = np.stack([Y.ravel(), Z.ravel()], 1) + np.asarray(center)[1:]  # [R*R, 2]
     slabs = max(1, chunk // (R * R))
@@ -178,11 +146,8 @@ def density_volume(density: Callable[[np.ndarray], np.ndarray], bound: float, re
 
 def auto_level(grid: np.ndarray, floor: float = 1e-3) -> float:
     """Otsu's threshold of ``log10(sigma)`` over the grid nodes with ``sigma > floor``, as a density.
-
-    Empty space (``sigma <= floor``, often most of the grid and exactly 0 for ReLU fields)
-    is left out: it would form a spike that Otsu splits off instead of matter from haze.
-    A clean two-valued field (empty space and one density ``s``) gets ``s / 2``.
-    """
+    Empty space (often most of the grid, exactly 0 for ReLU fields) is left out: Otsu would split
+    off its spike instead of matter from haze. A field of empty space and one density ``s`` gets ``s / 2``."""
     from skimage.filters import threshold_otsu
 
     grid = np.asarray(grid, np.float64)
@@ -226,26 +191,69 @@ def mesh_from_grid(grid: np.ndarray, bound: float, level: float | str = 10.0, ce
         raise MitnerfError(f"no surface at density level {level:g}: every grid density is {side} it; "
                            f"{_level_hint(grid)}{fix}")
     h = 2.0 * bound / (R - 1)
-    origin = -bound
+    origin = -bound - h if close else -bound
     if close:                                   # a layer of empty space caps matter at the cube's faces
         grid = np.pad(grid, 1, constant_values=min(lo, level) - 1.0)
-        origin -= h
     verts, faces, _, _ = measure.marching_cubes(grid, level=level, spacing=(h, h, h), allow_degenerate=False)
     # skimage winds faces clockwise seen from the side of lower values; flip to counter-clockwise
-    mesh = Mesh(verts + origin + np.asarray(center, np.float64), faces[:, ::-1], level,
+    return Mesh(verts + origin + np.asarray(center, np.float64), faces[:, ::-1], level,
                 {"bound": bound, "resolution": R, "spacing": h, "density_min": lo, "density_max": hi})
-    return mesh
 
 
 def extract_mesh(density: Callable[[np.ndarray], np.ndarray], bound: float, resolution: int = 128,
                  level: float | str = 10.0, center=(0.0, 0.0, 0.0), chunk: int = 1 << 18,
                  progress: bool = True, close: bool = True) -> Mesh:
     """The ``density == level`` surface inside ``center + [-bound, bound]^3``; see the module docstring."""
-    import time
-
     t0 = time.perf_counter()
     grid = density_volume(density, bound, resolution, center, chunk, progress)
     t_grid = time.perf_counter() - t0
     mesh = mesh_from_grid(grid, bound, level, center, close)
     mesh.info.update(grid_seconds=t_grid, seconds=time.perf_counter() - t0)
     return mesh
+
+
+@dataclass
+class ChamferResult:
+    """Chamfer distance and its two one-sided parts, in world units."""
+
+    chamfer: float
+    """``(a_to_b + b_to_a) / 2``."""
+    a_to_b: float
+    """Mean distance from samples of A to the nearest sample of B (accuracy of A)."""
+    b_to_a: float
+    """Mean distance from samples of B to the nearest sample of A (completeness of A)."""
+    n_points: int
+    """Samples drawn on each surface."""
+    floor: float
+    """The sampling floor ``0.5 * sqrt(area / n_points)`` of the larger surface."""
+
+    def __str__(self) -> str:
+        return (f"chamfer {self.chamfer:.4g} (learned->truth {self.a_to_b:.4g}, truth->learned {self.b_to_a:.4g}; "
+                f"{self.n_points} samples each, sampling floor ~{self.floor:.2g})")
+
+
+def sample_surface(mesh, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` points ``[n, 3]`` uniform by area on ``mesh`` (anything :func:`as_mesh` reads)."""
+    mesh = as_mesh(mesh)
+    areas = mesh.face_areas()                                     # [f]
+    total = areas.sum()
+    if len(mesh.faces) == 0 or not total > 0:
+        raise MitnerfError("cannot sample an empty mesh (no faces or zero area); extract it at another level")
+    face = rng.choice(len(areas), size=n, p=areas / total)        # [n]
+    u, r2 = np.sqrt(rng.random(n)), rng.random(n)
+    w = np.stack([1 - u, u * (1 - r2), u * r2], 1)                # [n, 3] barycentric
+    return np.einsum("nk,nkd->nd", w, mesh.triangles[face])
+
+
+def chamfer_distance(a, b, n_points: int = 100_000, seed: int = 0) -> ChamferResult:
+    """Chamfer distance between meshes ``a`` and ``b`` (Mesh, PLY path, (v, f) or pyvista)."""
+    from scipy.spatial import cKDTree
+
+    if n_points < 1:
+        raise MitnerfError(f"n_points must be positive, got {n_points}")
+    a, b = as_mesh(a), as_mesh(b)
+    rng = np.random.default_rng(seed)
+    P, Q = sample_surface(a, n_points, rng), sample_surface(b, n_points, rng)    # [N, 3] each
+    a_to_b, b_to_a = float(cKDTree(Q).query(P)[0].mean()), float(cKDTree(P).query(Q)[0].mean())
+    floor = 0.5 * np.sqrt(max(a.area, b.area) / n_points)
+    return ChamferResult(0.5 * (a_to_b + b_to_a), a_to_b, b_to_a, n_points, float(floor))

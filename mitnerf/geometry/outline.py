@@ -1,11 +1,8 @@
 """Geometry of a 2D field: the solid its density encloses, and its IoU with the true outline.
 
-A field trained on views from outside never learns what lies behind an opaque surface,
-so the *solid* is the region the opaque density shuts off from outside: the cells whose
-density reaches ``level`` (:data:`mitnerf.geometry.mesh.LEVEL`, the level of the 3D meshes
-too), with every hole they enclose filled
-(``scipy.ndimage.binary_fill_holes``). A concavity that the density fills in is then
-counted as solid, and the IoU with the polygon drops, which is what the measure is for.
+The *solid* is the cells whose density reaches ``level`` (:data:`mitnerf.geometry.mesh.LEVEL`) with every hole
+they enclose filled (``scipy.ndimage.binary_fill_holes``): a field never learns what lies behind an opaque wall,
+so a concavity that its density fills in counts as solid and lowers the IoU.
 """
 
 from __future__ import annotations
@@ -15,6 +12,7 @@ from typing import Callable
 import numpy as np
 
 from .mesh import LEVEL
+
 
 def grid_points(bound: float, res: int) -> np.ndarray:
     """Cell centres of a ``res x res`` grid over ``[-bound, bound]^2``, row 0 at +y, ``[res * res, 2]``."""

@@ -1,20 +1,10 @@
 """Ground-truth rendering with Mitsuba (not the NeRF renderer): colour, coverage, exact depth, mask.
 
-Colour is the pixel-footprint average (box filter) rendered through a ``batch``
-sensor, many views per launch so that kernels stay wide. Point lights summed by
-:func:`~mitnerf.scenes.integrator.all_lights_integrator` make direct lighting
-noise-free, for glossy materials too (a BSDF evaluated towards a point light needs no
-sampling); a stratified sampler then converges the footprint integral quickly (the
-tests require >= 50 dB against a render with 4x the samples). An environment light
-needs Mitsuba's ``path`` integrator: Monte Carlo noise that fades with ``spp``.
-
-Depth and mask do not come from a jittered AOV (which averages misses into silhouette
-pixels): every pixel-centre ray is intersected with the scene, so depth is the exact distance along that
-ray and the mask says whether it hits. :func:`aov_depth` renders Mitsuba's own ``aov``
-depth at the film's pixel centres, to check the two against each other.
-
-Cameras enter as arrays (Mitsuba ``to_world`` frames, the field of view, the film size,
-pixel-centre rays), so this stage knows nothing of the data stage's camera objects.
+Colour is the pixel-footprint average (box filter) of views rendered many at a time through a ``batch`` sensor:
+noise-free direct lighting summed over point lights (:func:`all_lights_integrator`), or Mitsuba's ``path``
+integrator for an environment light (noise fades with ``spp``). Depth and mask intersect every pixel-centre ray
+with the scene; :func:`aov_depth` checks them against Mitsuba's depth AOV. Cameras enter as arrays
+(``to_world`` frames, field of view, film size, rays).
 """
 
 from __future__ import annotations
@@ -25,7 +15,6 @@ import numpy as np
 
 from .._variant import ensure_variant
 from ..errors import ConfigError, DataError
-from .integrator import all_lights_integrator
 
 INTEGRATORS = ("all_lights", "path", "scene")
 PATH_INTEGRATOR = {"type": "path", "max_depth": 8, "hide_emitters": True}
@@ -49,16 +38,39 @@ class RenderSettings:
     """Views are split into launches of at most this many samples (bounds memory)."""
 
 
-def _sensor_dict(frames: np.ndarray, fov: float, film_w: int, film_h: int, sampler: dict, near_clip: float = 1e-3):
+def all_lights_integrator():
+    """``all_lights``: direct lighting summed over every (point) emitter, none picked at random as by Mitsuba's
+    ``direct``. Built per call: Python integrators subclass a variant-specific class."""
+    import drjit as dr
     import mitsuba as mi
 
-    sensors = {f"view_{i:04d}": {"type": "perspective", "fov": fov, "fov_axis": "x",
-                                 "near_clip": near_clip, "to_world": mi.ScalarTransform4f(m.tolist())}
-               for i, m in enumerate(frames)}
-    return {"type": "batch", **sensors,
-            "film": {"type": "hdrfilm", "width": film_w, "height": film_h, "pixel_format": "rgba",
-                     "rfilter": {"type": "box"}, "sample_border": False},
-            "sampler": sampler}
+    class AllLightsIntegrator(mi.SamplingIntegrator):
+        def __init__(self):
+            super().__init__(mi.Properties())
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            si = scene.ray_intersect(ray, active)
+            valid = si.is_valid() & active
+            if not dr.is_jit_v(mi.Float) and not valid:   # scalar: no masking, si.bsdf() would crash
+                return mi.Spectrum(0.0), False, []
+            bsdf = si.bsdf(ray)
+            result = mi.Spectrum(0.0)
+            for emitter in scene.emitters():      # unrolled: ground-truth scenes have few lights
+                ds, weight = emitter.sample_direction(si, mi.Point2f(0.5, 0.5), valid)
+                lit = valid & (ds.pdf > 0)
+                # dr.select, not ~: in scalar variants ~True is the int -2
+                visible = lit & dr.select(scene.ray_test(si.spawn_ray_to(ds.p), lit), False, True)
+                f = bsdf.eval(mi.BSDFContext(), si, si.to_local(ds.d), visible)
+                result += dr.select(visible, f * weight, 0.0)
+            return result, valid, []
+
+        def aov_names(self):
+            return []
+
+        def to_string(self):
+            return "AllLightsIntegrator[]"
+
+    return AllLightsIntegrator()
 
 
 def make_integrator(scene, name: str):
@@ -77,78 +89,72 @@ def make_integrator(scene, name: str):
     raise ConfigError(f"unknown integrator {name!r}; choose one of {', '.join(INTEGRATORS)}")
 
 
-def render_color(scene, frames: np.ndarray, fov: float, height: int, width: int,
-                 settings: RenderSettings | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Colour and coverage of every view: ``rgb [n, H, W, 3]``, ``alpha [n, H, W]``.
-
-    ``frames [n, 4, 4]``: Mitsuba ``to_world`` matrices; ``fov`` in degrees along the
-    film's x axis; a 2D view (``width == 1``) is an ``H x 1`` film whose column ``i`` is
-    pixel row ``i``."""
+def _render_views(scene, frames, fov, height, width, sampler: dict, integrator, spp: int, seed: int = 0,
+                  near_clip: float = 1e-3) -> np.ndarray:
+    """Film values ``[n, H, W, channels]`` of views ``frames`` rendered through one ``batch`` sensor
+    (a 2D view, ``width == 1``, is an ``H x 1`` film whose column ``i`` is pixel row ``i``)."""
     import mitsuba as mi
 
+    fw, fh = (height, 1) if width == 1 else (width, height)
+    sensors = {f"view_{i:04d}": {"type": "perspective", "fov": fov, "fov_axis": "x",
+                                 "near_clip": near_clip, "to_world": mi.ScalarTransform4f(m.tolist())}
+               for i, m in enumerate(frames)}
+    film = {"type": "hdrfilm", "width": fw * len(frames), "height": fh, "pixel_format": "rgba",
+            "rfilter": {"type": "box"}, "sample_border": False}
+    sensor = mi.load_dict({"type": "batch", **sensors, "film": film, "sampler": sampler})
+    img = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed))
+    views = img.reshape(fh, len(frames), fw, -1).transpose(1, 0, 2, 3)
+    return views.transpose(0, 2, 1, 3) if width == 1 else views
+
+
+def render_color(scene, frames: np.ndarray, fov: float, height: int, width: int,
+                 settings: RenderSettings | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Colour and coverage of every view: ``rgb [n, H, W, 3]``, ``alpha [n, H, W]``. ``frames [n, 4, 4]``: Mitsuba
+    ``to_world`` matrices; ``fov`` in degrees along the film's x axis; a 2D view has ``width == 1``."""
     ensure_variant()
     settings = settings or RenderSettings()
-    spp = settings.spp
-    integrator = make_integrator(scene, settings.integrator)
-    flat = width == 1                       # 2D: film H x 1
-    fw, fh = (height, 1) if flat else (width, height)
-    per_view = fw * fh * spp
-    chunk = max(1, settings.max_samples_per_launch // per_view)
-    out = np.empty((len(frames), fh, fw, 4), np.float32)
+    spp, integrator = settings.spp, make_integrator(scene, settings.integrator)
+    sampler = {"type": settings.sampler, "sample_count": spp}
+    chunk = max(1, settings.max_samples_per_launch // (height * width * spp))
+    out = np.empty((len(frames), height, width, 4), np.float32)
     for start in range(0, len(frames), chunk):
-        sub = frames[start:start + chunk]
-        sampler = {"type": settings.sampler, "sample_count": spp}
-        sensor = mi.load_dict(_sensor_dict(sub, fov, fw * len(sub), fh, sampler))
-        img = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, spp=spp,
-                                   seed=settings.seed + start))
-        out[start:start + len(sub)] = img.reshape(fh, len(sub), fw, 4).transpose(1, 0, 2, 3)
-    if flat:   # film column i is pixel row i
-        out = out.transpose(0, 2, 1, 3)
+        out[start:start + chunk] = _render_views(scene, frames[start:start + chunk], fov, height, width, sampler,
+                                                 integrator, spp, settings.seed + start)
     return np.ascontiguousarray(out[..., :3]), np.ascontiguousarray(out[..., 3])
 
 
 def aov_depth(scene, frames: np.ndarray, fov: float, height: int, width: int) -> np.ndarray:
-    """Mitsuba's ``aov`` depth (``dd.y:depth``, 0 on a miss) at every pixel centre,
-    ``[n, H, W]``: one sample per pixel from a stratified sampler without jitter lands on
-    the pixel centre, and the near clip is moved to 1e-7 (perspective rays start there)."""
+    """Mitsuba's ``aov`` depth (``dd.y:depth``, 0 on a miss) at every pixel centre, ``[n, H, W]``: one unjittered
+    stratified sample per pixel lands there; the near clip is 1e-7 (perspective rays start there)."""
     import mitsuba as mi
 
     ensure_variant()
-    flat = width == 1
-    fw, fh = (height, 1) if flat else (width, height)
     sampler = {"type": "stratified", "sample_count": 1, "jitter": False}
-    sensor = mi.load_dict(_sensor_dict(frames, fov, fw * len(frames), fh, sampler, near_clip=1e-7))
-    img = mi.render(scene, sensor=sensor, integrator=mi.load_dict({"type": "aov", "aovs": "dd.y:depth"}), spp=1)
-    out = np.asarray(img)[..., -1].reshape(fh, len(frames), fw).transpose(1, 0, 2)
-    return np.ascontiguousarray(out.transpose(0, 2, 1) if flat else out)
+    aov = mi.load_dict({"type": "aov", "aovs": "dd.y:depth"})
+    depth = _render_views(scene, frames, fov, height, width, sampler, aov, 1, near_clip=1e-7)[..., -1]
+    return np.ascontiguousarray(depth)
 
 
-def ray_depth(scene, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """Distance to the first hit along rays ``[m, 2 or 3]`` (``inf`` on a miss), ``[m]``."""
+def exact_depth(scene, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Depth (distance to the first hit, ``inf`` on a miss) and mask of pixel-centre rays ``[..., D]``
+    (any leading shape; ``D = 2``: rays in the z = 0 plane), each ``[...]``."""
     import drjit as dr
     import mitsuba as mi
 
     ensure_variant()
-    if origins.shape[-1] == 2:   # 2D rays live in the z = 0 plane
-        origins = np.c_[origins, np.zeros(len(origins))]
-        dirs = np.c_[dirs, np.zeros(len(dirs))]
-    if dr.is_jit_v(mi.Float):
-        ray = mi.Ray3f(mi.Point3f(*(mi.Float(c) for c in origins.T.astype(np.float32))),
-                       mi.Vector3f(*(mi.Float(c) for c in dirs.T.astype(np.float32))))
-        si = scene.ray_intersect(ray)
-        t = np.asarray(si.t, dtype=np.float64)
-        return np.where(np.asarray(si.is_valid()), t, np.inf)
-    out = np.full(len(origins), np.inf)       # scalar variants: one ray at a time
-    for k, (o, d) in enumerate(zip(origins, dirs)):
-        si = scene.ray_intersect(mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*d)))
-        if si.is_valid():
-            out[k] = float(si.t)
-    return out
-
-
-def exact_depth(scene, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Depth and mask of pixel-centre rays ``[..., D]`` (any leading shape), each ``[...]``."""
-    shape = origins.shape[:-1]
     D = origins.shape[-1]
-    depth = ray_depth(scene, origins.reshape(-1, D), dirs.reshape(-1, D)).reshape(shape)
+    o, d = origins.reshape(-1, D), dirs.reshape(-1, D)
+    if D == 2:
+        o, d = np.c_[o, np.zeros(len(o))], np.c_[d, np.zeros(len(d))]
+    if dr.is_jit_v(mi.Float):
+        si = scene.ray_intersect(mi.Ray3f(mi.Point3f(*(mi.Float(c) for c in o.T.astype(np.float32))),
+                                          mi.Vector3f(*(mi.Float(c) for c in d.T.astype(np.float32)))))
+        depth = np.where(np.asarray(si.is_valid()), np.asarray(si.t, dtype=np.float64), np.inf)
+    else:                                      # scalar variants: one ray at a time
+        depth = np.full(len(o), np.inf)
+        for k, (ok, dk) in enumerate(zip(o, d)):
+            si = scene.ray_intersect(mi.Ray3f(mi.Point3f(*ok), mi.Vector3f(*dk)))
+            if si.is_valid():
+                depth[k] = float(si.t)
+    depth = depth.reshape(origins.shape[:-1])
     return depth.astype(np.float32), np.isfinite(depth)

@@ -1,20 +1,10 @@
 """Materials and lighting: the library's scenes with view-dependent appearance or a sky.
 
-A scene's *look* is a material and a lighting. The default (``diffuse`` under the
-scene's own point lights) is loaded from its XML file unchanged; any other look is
-built here with ``mitsuba.load_dict`` from the same mesh, albedo and lights:
-
-* materials: ``plastic`` (Mitsuba's smooth ``plastic``), ``roughplastic`` and
-  ``roughconductor`` keep the object's colour as the diffuse colour (plastics) or as the
-  tint of the metal, with a specular layer on top; ``textured`` is diffuse with a
-  high-frequency 1D texture (a barcode) along a 2D outline;
-* lighting: ``points`` (the XML's point lights) or ``env``, a procedural sky with a
-  sun (:func:`sky_image`) as an ``envmap`` emitter, which needs the ``path`` integrator.
-  3D scenes see the sun 40 degrees high; 2D scenes on the horizon, in the plane of their
-  cameras (and of their point lights), where mirror reflections of 1D views can see it.
-
-Named variants: ``<scene>[_<material>][_env]``, with ``glossy`` for ``roughplastic``
-(``bunny_glossy``, ``vase_roughconductor_env``).
+A scene's *look* is a material and a lighting. The default (``diffuse`` under the XML's point lights) is its XML
+file unchanged; any other look is built with ``mitsuba.load_dict`` from the same mesh, albedo and lights.
+``textured`` paints a barcode along a 2D outline; ``env`` is a procedural sky with a sun (:func:`sky_image`, needs
+the ``path`` integrator): 40 degrees high for 3D scenes, on the horizon (the cameras' plane) for 2D ones.
+Named variants: ``<scene>[_<material>][_env]``, ``glossy`` meaning ``roughplastic`` (``bunny_glossy``).
 """
 
 from __future__ import annotations
@@ -67,24 +57,19 @@ def check_look(name: str, kind: str, material: str, lighting: str, has_mesh: boo
 
 def bsdf_dict(material: str, albedo, two_sided: bool) -> dict:
     """Mitsuba BSDF of ``material`` whose colour is ``albedo`` (a texture dict or object)."""
-    if material in ("diffuse", "textured"):
-        bsdf = {"type": "diffuse", "reflectance": albedo}
-    elif material == "plastic":
-        bsdf = {"type": "plastic", "diffuse_reflectance": albedo, "int_ior": 1.5}
-    elif material == "roughplastic":
-        bsdf = {"type": "roughplastic", "diffuse_reflectance": albedo, "int_ior": 1.5,
-                "distribution": "ggx", "alpha": 0.12}
-    elif material == "roughconductor":   # material "none": a perfect mirror tinted by the albedo
-        bsdf = {"type": "roughconductor", "specular_reflectance": albedo, "distribution": "ggx", "alpha": 0.3}
-    else:
-        raise DataError(f"unknown material {material!r}; choose one of {', '.join(MATERIALS)}")
-    return {"type": "twosided", "bsdf": bsdf} if two_sided else bsdf
+    bsdfs = {"diffuse": {"type": "diffuse", "reflectance": albedo},
+             "plastic": {"type": "plastic", "diffuse_reflectance": albedo, "int_ior": 1.5},
+             "roughplastic": {"type": "roughplastic", "diffuse_reflectance": albedo, "int_ior": 1.5,
+                              "distribution": "ggx", "alpha": 0.12},
+             "roughconductor": {"type": "roughconductor", "specular_reflectance": albedo,   # a tinted metal
+                                "distribution": "ggx", "alpha": 0.3}}
+    bsdfs["textured"] = bsdfs["diffuse"]          # check_look has refused other materials
+    return {"type": "twosided", "bsdf": bsdfs[material]} if two_sided else bsdfs[material]
 
 
 def vertex_color_texture():
-    """Per-vertex colour as a texture that has a mean. Mitsuba's ``mesh_attribute`` has
-    none, and ``plastic``/``roughplastic`` need one for their sampling weight. Built per
-    call: Python plugins subclass a variant-specific base class."""
+    """Per-vertex colour as a texture with a mean (``plastic``/``roughplastic`` need one; ``mesh_attribute`` has
+    none). Built per call: Python plugins subclass a variant-specific base class."""
     import mitsuba as mi
 
     class VertexColor(mi.Texture):
@@ -103,60 +88,39 @@ def vertex_color_texture():
     return VertexColor()
 
 
-def albedo_texture(texture: Path | None, material: str):
-    """The object's colour: its image texture (UV meshes) or its vertex colours."""
-    if texture is not None:
-        return {"type": "bitmap", "filename": str(texture), "filter_type": "bilinear", "wrap_mode": "repeat"}
-    if material in ("plastic", "roughplastic"):
-        return vertex_color_texture()
-    return {"type": "mesh_attribute", "name": "vertex_color"}
-
-
 # ----------------------------------------------------------------------------- the sky
-def sky_directions(width: int, height: int) -> np.ndarray:
-    """World direction (z up) of every texel of a lat-long map read by Mitsuba's ``envmap``
-    with ``to_world`` = a +90 degree turn about x. ``[height, width, 3]``."""
-    theta = (np.arange(height) + 0.5) / height * np.pi        # row 0: the zenith
-    phi = (np.arange(width) + 0.5) / width * 2 * np.pi
-    T, P = np.meshgrid(theta, phi, indexing="ij")
-    return np.stack([np.sin(T) * np.sin(P), np.sin(T) * np.cos(P), np.cos(T)], -1)
-
-
 def sky_image(sun_elevation: float = 40.0, width: int = 512, height: int = 256,
               sun_radiance: float = 300.0) -> np.ndarray:
-    """Linear radiance of a procedural sky: blue zenith, pale horizon, dark ground and a
-    sun disc of 2.5 degrees radius at ``sun_elevation`` and :data:`SUN_AZIMUTH` (degrees).
-    ``[height, width, 3]`` float32."""
-    d = sky_directions(width, height)
+    """Linear radiance of a procedural sky: blue zenith, pale horizon, dark ground and a sun disc of
+    2.5 degrees radius at ``sun_elevation`` and :data:`SUN_AZIMUTH` (degrees). A lat-long map for
+    Mitsuba's ``envmap`` turned +90 degrees about x (z up, row 0 the zenith), ``[height, width, 3]`` float32."""
+    theta = (np.arange(height) + 0.5) / height * np.pi
+    phi = (np.arange(width) + 0.5) / width * 2 * np.pi
+    T, P = np.meshgrid(theta, phi, indexing="ij")
+    d = np.stack([np.sin(T) * np.sin(P), np.sin(T) * np.cos(P), np.cos(T)], -1)     # [height, width, 3]
     z = d[..., 2:]
     zenith, horizon, ground = np.array([0.18, 0.32, 0.75]), np.array([0.75, 0.8, 0.9]), np.array([0.16, 0.14, 0.12])
     t = (1 - np.clip(z, 0, 1)) ** 3
-    sky = zenith * (1 - t) + horizon * t
     above = np.clip(z / 0.03 + 0.5, 0, 1)                    # a soft horizon
-    img = sky * above + ground * (1 - above)
+    img = (zenith * (1 - t) + horizon * t) * above + ground * (1 - above)
     el, az = np.radians(sun_elevation), np.radians(SUN_AZIMUTH)
     sun = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
     angle = np.degrees(np.arccos(np.clip(d @ sun, -1, 1)))
     disc = np.clip((3.0 - angle) / 1.0, 0, 1)                # 2.5 degrees, a 1-degree soft rim
-    img = img + disc[..., None] * sun_radiance * np.array([1.0, 0.95, 0.85])
-    return img.astype(np.float32)
-
-
-def sky_envmap(sun_elevation: float) -> Path:
-    """The sky as an EXR in the cache (written on first use)."""
-    import mitsuba as mi
-
-    def build(tmp: Path) -> None:
-        mi.Bitmap(sky_image(sun_elevation)).write(str(tmp / "sky.exr"))
-
-    return cache_entry(f"env/sky-{digest(SKY_VERSION, str(sun_elevation))}", build) / "sky.exr"
+    return (img + disc[..., None] * sun_radiance * np.array([1.0, 0.95, 0.85])).astype(np.float32)
 
 
 def env_emitter(kind: str) -> dict:
+    """The sky of a ``2d`` or ``3d`` scene as an ``envmap`` emitter (its EXR cached on first use)."""
     import mitsuba as mi
 
-    return {"type": "envmap", "filename": str(sky_envmap(SUN_ELEVATION[kind])),
-            "to_world": mi.ScalarTransform4f().rotate([1, 0, 0], 90)}
+    elevation = SUN_ELEVATION[kind]
+
+    def build(tmp: Path) -> None:
+        mi.Bitmap(sky_image(elevation)).write(str(tmp / "sky.exr"))
+
+    sky = cache_entry(f"env/sky-{digest(SKY_VERSION, str(elevation))}", build) / "sky.exr"
+    return {"type": "envmap", "filename": str(sky), "to_world": mi.ScalarTransform4f().rotate([1, 0, 0], 90)}
 
 
 # ----------------------------------------------------------------------------- the scene
@@ -166,14 +130,18 @@ def styled_scene(info, point_lights) -> "object":
     import mitsuba as mi
 
     check_look(info.name, info.kind, info.material, info.lighting, info.mesh is not None)
-    shape = {"type": "ply", "filename": str(info.mesh),
-             "bsdf": bsdf_dict(info.material, albedo_texture(info.texture, info.material), info.kind == "3d")}
+    if info.texture is not None:                            # the object's colour: its image texture (UVs) ...
+        albedo = {"type": "bitmap", "filename": str(info.texture), "filter_type": "bilinear", "wrap_mode": "repeat"}
+    elif info.material in ("plastic", "roughplastic"):      # ... or its vertex colours
+        albedo = vertex_color_texture()
+    else:
+        albedo = {"type": "mesh_attribute", "name": "vertex_color"}
+    shape = {"type": "ply", "filename": str(info.mesh), "bsdf": bsdf_dict(info.material, albedo, info.kind == "3d")}
     if info.kind == "2d":
         shape["face_normals"] = True
     if info.lighting == "env":
-        emitters = {"sky": env_emitter(info.kind)}
-        integrator = dict(PATH_INTEGRATOR)
-    else:
+        emitters, integrator = {"sky": env_emitter(info.kind)}, dict(PATH_INTEGRATOR)
+    else:                                                   # the XML files' lights and integrator
         emitters = {f"light_{k}": e for k, e in enumerate(point_lights)}
-        integrator = {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}   # as in the XML files
+        integrator = {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}
     return mi.load_dict({"type": "scene", "integrator": integrator, "object": shape, **emitters})

@@ -1,10 +1,8 @@
 """Closed 2D outlines: validation, colour along the outline, and the extruded prism.
 
-A :class:`Polygon` is a simple (non-self-intersecting) closed ring of points. Input
-follows the GeoJSON convention: the last point repeats the first, so an *open*
-polyline is told apart from a closed one. Internally the ring is stored without the
-repeated point and counter-clockwise, so that every wall of the prism faces outward
-(Mitsuba's diffuse surfaces are one-sided).
+A :class:`Polygon` is a simple (non-self-intersecting) closed ring. Input follows GeoJSON: the last point repeats
+the first (an open polyline is refused). The ring is stored without the repeated point and counter-clockwise, so
+every wall of the prism faces outward (Mitsuba's diffuse surfaces are one-sided).
 """
 
 from __future__ import annotations
@@ -28,8 +26,7 @@ def _segments_intersect(p, p2, q, q2) -> np.ndarray:
                        - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0]))
 
     def on_segment(a, b, c):  # c collinear with a-b: is it inside the box?
-        return ((np.minimum(a[..., 0], b[..., 0]) <= c[..., 0]) & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]))
-                & (np.minimum(a[..., 1], b[..., 1]) <= c[..., 1]) & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1])))
+        return ((np.minimum(a, b) <= c) & (c <= np.maximum(a, b))).all(-1)
 
     o1, o2 = orient(p, p2, q), orient(p, p2, q2)
     o3, o4 = orient(q, q2, p), orient(q, q2, p2)
@@ -40,21 +37,17 @@ def _segments_intersect(p, p2, q, q2) -> np.ndarray:
 
 
 def outline_color(s: np.ndarray) -> np.ndarray:
-    """Diffuse reflectance along the outline, ``s`` = arc length / perimeter in [0, 1).
-
-    A smooth hue cycle kept inside [0.12, 0.88] so that no wall is black or saturated.
-    Returns ``[len(s), 3]``.
-    """
+    """Diffuse reflectance ``[len(s), 3]`` at ``s`` = arc length / perimeter in [0, 1): a smooth
+    hue cycle kept inside [0.12, 0.88] so that no wall is black or saturated."""
     phase = np.array([0.0, 1.0 / 3.0, 2.0 / 3.0])
     return 0.5 + 0.38 * np.cos(2.0 * np.pi * (s[:, None] + phase))
 
 
 def outline_stripes(perimeter: float, texels_per_unit: int = 200, seed: int = 0) -> np.ndarray:
-    """A 1D texture along the outline for the ``textured`` material: the colour cycle of
-    :func:`outline_color` crossed by a barcode of dark bars and gaps 0.025, 0.05 or 0.1
-    world units wide (about 0.6 to 2.5 pixels of a 100-pixel view from radius 4).
-    Linear reflectance, ``[1, W, 3]`` float32; texel ``k`` covers arc-length fraction
-    ``[k, k + 1) / W``."""
+    """A 1D texture along the outline for the ``textured`` material: the colour cycle of :func:`outline_color`
+    crossed by a barcode of dark bars and gaps 0.025, 0.05 or 0.1 world units wide (about 0.6 to 2.5
+    pixels of a 100-pixel view from radius 4). Linear reflectance, ``[1, W, 3]`` float32; texel ``k``
+    covers arc-length fraction ``[k, k + 1) / W``."""
     n = int(np.ceil(perimeter * texels_per_unit))
     s = (np.arange(n) + 0.5) / n
     widths = np.random.default_rng(seed).choice([0.025, 0.05, 0.1], size=int(perimeter / 0.025) + 1)
@@ -86,16 +79,14 @@ class Polygon:
         except (TypeError, ValueError):
             raise MitnerfError(f"polygon {name!r}: points must be a list of [x, y] pairs") from None
         if pts.ndim != 2 or pts.shape[1] != 2:
-            raise MitnerfError(
-                f"polygon {name!r}: expected a list of [x, y] points, got an array of shape "
-                f"{pts.shape}; write it as [[x0, y0], [x1, y1], ..., [x0, y0]]")
+            raise MitnerfError(f"polygon {name!r}: expected a list of [x, y] points, got an array of shape "
+                               f"{pts.shape}; write it as [[x0, y0], [x1, y1], ..., [x0, y0]]")
         if not np.all(np.isfinite(pts)):
             raise MitnerfError(f"polygon {name!r}: a point is NaN or infinite; give finite coordinates")
         if len(pts) < 2 or not np.allclose(pts[0], pts[-1], atol=1e-9):
             first, last = (pts[0].tolist(), pts[-1].tolist()) if len(pts) else ([], [])
-            raise MitnerfError(
-                f"polygon {name!r} is open: its last point {last} differs from its first {first}; "
-                "repeat the first point at the end to close it")
+            raise MitnerfError(f"polygon {name!r} is open: its last point {last} differs from its first {first}; "
+                               "repeat the first point at the end to close it")
         pts = pts[:-1]
         if len(pts) > MAX_POINTS:
             raise MitnerfError(f"polygon {name!r} has {len(pts)} points; mitnerf takes at most {MAX_POINTS}: "
@@ -108,9 +99,8 @@ class Polygon:
         bad = poly.self_intersections()
         if bad:
             i, j = bad[0]
-            raise MitnerfError(
-                f"polygon {name!r} is self-intersecting: edge {i} crosses edge {j}; "
-                "reorder or move the points so that the outline does not cross itself")
+            raise MitnerfError(f"polygon {name!r} is self-intersecting: edge {i} crosses edge {j}; "
+                               "reorder or move the points so that the outline does not cross itself")
         area = poly.signed_area()
         if abs(area) < 1e-12:
             raise MitnerfError(f"polygon {name!r} has zero area; its points are collinear")
@@ -129,7 +119,8 @@ class Polygon:
         except UnicodeDecodeError:
             raise MitnerfError(f"polygon file {path} is not UTF-8 text; save it as UTF-8 JSON") from None
         except json.JSONDecodeError as exc:
-            raise MitnerfError(f"polygon file {path} is not valid JSON ({exc.msg} at line {exc.lineno}); fix the file") from None
+            raise MitnerfError(f"polygon file {path} is not valid JSON ({exc.msg} at line {exc.lineno}); "
+                               "fix the file") from None
         except RecursionError:
             raise MitnerfError(f"polygon file {path} nests too deeply to be a list of points; fix the file") from None
         if isinstance(data, dict):
@@ -179,11 +170,8 @@ class Polygon:
         return MplPath(self.points).contains_points(np.asarray(xy))
 
     def intersect(self, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-        """Distance along each ray to the first wall, ``inf`` on a miss.
-
-        Analytic ray-segment intersection in numpy (the reference the rendered depth
-        is tested against). ``origins, dirs``: ``[m, 2]``; returns ``[m]``.
-        """
+        """Distance ``[m]`` along rays ``origins, dirs [m, 2]`` to the first wall, ``inf`` on a miss:
+        analytic, the reference the rendered depth is tested against."""
         a, b = self.edges
         e = b - a                                        # [n, 2]
         o, d = origins[:, None, :], dirs[:, None, :]     # [m, 1, 2]
@@ -197,10 +185,8 @@ class Polygon:
 
     # ----------------------------------------------------------------- the prism
     def resampled(self, max_len: float) -> tuple[np.ndarray, np.ndarray]:
-        """Outline points with no wall segment longer than ``max_len`` (for smooth colour).
-
-        Returns the points ``[m, 2]`` and their arc-length fraction ``s`` ``[m]``.
-        """
+        """Outline points ``[m, 2]`` with no wall segment longer than ``max_len`` (for smooth
+        colour) and their arc-length fractions ``s`` ``[m]``."""
         a, b = self.edges
         pts, s, acc, total = [], [], 0.0, self.perimeter()
         for p, q in zip(a, b):
@@ -213,45 +199,31 @@ class Polygon:
         return np.array(pts), np.array(s)
 
     def prism(self, half_height: float = 1.0, max_len: float = 0.05):
-        """Triangle mesh of the outline extruded to ``z in [-h, h]``, walls outward.
-
-        Every wall segment owns four vertices (flat walls), coloured by
-        :func:`outline_color`; the caps are triangulated with VTK. Returns
-        ``(vertices [v, 3], faces [f, 3], colors [v, 3])``.
-        """
+        """Triangle mesh ``(vertices [v, 3], faces [f, 3], colors [v, 3])`` of the outline extruded
+        to ``z in [-h, h]``, walls outward. Every wall segment owns four vertices (flat walls),
+        coloured by :func:`outline_color`; the caps are triangulated with VTK."""
         import pyvista as pv
 
         pts, s = self.resampled(max_len)
-        nxt = np.roll(pts, -1, axis=0)
-        col = outline_color(s)
+        nxt, col = np.roll(pts, -1, axis=0), outline_color(s)
         col_nxt = np.roll(col, -1, axis=0)
-        m = len(pts)
-        h = half_height
-        v = np.empty((m, 4, 3))
-        v[:, 0, :2], v[:, 1, :2], v[:, 2, :2], v[:, 3, :2] = pts, nxt, nxt, pts
-        v[:, :, 2] = [-h, -h, h, h]
-        c = np.stack([col, col_nxt, col_nxt, col], axis=1)
+        h, m, k = half_height, len(pts), len(self.points)
+        walls = np.empty((m, 4, 3))
+        walls[:, :, :2] = np.stack([pts, nxt, nxt, pts], axis=1)
+        walls[:, :, 2] = [-h, -h, h, h]
         base = 4 * np.arange(m)[:, None]
-        faces = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]])
-        verts, cols = v.reshape(-1, 3), c.reshape(-1, 3)
-
-        cap = pv.PolyData(np.c_[self.points, np.zeros(len(self.points))],
-                          faces=np.r_[len(self.points), np.arange(len(self.points))]).triangulate()
+        cap = pv.PolyData(np.c_[self.points, np.zeros(k)], faces=np.r_[k, np.arange(k)]).triangulate()
         tri = cap.faces.reshape(-1, 4)[:, 1:]
-        k = len(self.points)
-        cap_col = np.full((k, 3), 0.5)  # grey caps: never seen from the z = 0 plane
-        top = np.c_[self.points, np.full(k, h)]
-        bottom = np.c_[self.points, np.full(k, -h)]
-        n0 = len(verts)
-        verts = np.concatenate([verts, top, bottom])
-        cols = np.concatenate([cols, cap_col, cap_col])
-        faces = np.concatenate([faces, n0 + tri, n0 + k + tri[:, ::-1]])
+        top, bottom = np.c_[self.points, np.full(k, h)], np.c_[self.points, np.full(k, -h)]
+        verts = np.concatenate([walls.reshape(-1, 3), top, bottom])
+        cols = np.concatenate([np.stack([col, col_nxt, col_nxt, col], axis=1).reshape(-1, 3),
+                               np.full((2 * k, 3), 0.5)])    # grey caps: never seen from the z = 0 plane
+        faces = np.concatenate([base + [0, 1, 2], base + [0, 2, 3], 4 * m + tri, 4 * m + k + tri[:, ::-1]])
         return verts.astype(np.float32), faces.astype(np.int32), cols.astype(np.float32)
 
     def prism_uv(self, half_height: float = 1.0, max_len: float = 0.05):
-        """The mesh of :meth:`prism` with texture coordinates instead of colours: ``u`` is
-        the arc-length fraction along the wall (1 at the closing vertex, so a texture
-        wraps once), ``v`` goes up; caps sit at ``u = 0``. Returns ``(vertices, faces, uv [v, 2])``."""
+        """``(vertices, faces, uv [v, 2])``: :meth:`prism` with ``u`` the arc-length fraction along the wall (1 at the
+        closing vertex, so a texture wraps once) and ``v`` up instead of colours; caps sit at ``u = 0``."""
         v, f, _ = self.prism(half_height, max_len)
         _, s = self.resampled(max_len)
         s_next = np.r_[s[1:], 1.0]

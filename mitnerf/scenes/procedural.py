@@ -1,13 +1,8 @@
-"""Procedural 2D scenes (MNIST1D-style: the seed is the argument): random star-shaped
-outlines under randomised lights, for training fields across many scenes (pixelNeRF).
-
-* :func:`random_outline`: a few radial harmonics plus per-vertex noise, 6 to 40 vertices,
-  a random turn (so the colour cycle along the outline starts anywhere). Simple by
-  construction: strictly increasing angles, positive radii.
-* :func:`outline_scene`: its Mitsuba scene, the four point lights at a random radius in
-  [3.0, 3.5] and intensity in [9, 12] (the named 2D scenes use 3.0-3.5 and 9-12), so the
-  lighting gives nothing away.
-"""
+"""Procedural 2D scenes (MNIST1D-style: the seed is the argument) for training fields across many scenes
+(pixelNeRF). :func:`random_outline`: a star-shaped outline (radial harmonics plus per-vertex noise, 6 to 40
+vertices, increasing angles, positive radii) with a random turn, so the colour cycle starts anywhere.
+:func:`outline_scene`: its scene, the four point lights at a random radius in [3.0, 3.5] and intensity in
+[9, 12] (the range of the named 2D scenes), so the lighting gives nothing away."""
 
 from __future__ import annotations
 
@@ -23,8 +18,7 @@ def random_outline(seed: int, max_radius: tuple = (1.0, 1.6)) -> Polygon:
     """A star-shaped random outline whose largest radius is drawn from ``max_radius``."""
     rng = np.random.default_rng(seed)
     n = int(rng.integers(6, 41))
-    turn = rng.uniform(0, 2 * np.pi)
-    angle = turn + 2 * np.pi * (np.arange(n) + rng.uniform(-0.35, 0.35, n)) / n     # sorted, gaps < pi
+    angle = rng.uniform(0, 2 * np.pi) + 2 * np.pi * (np.arange(n) + rng.uniform(-0.35, 0.35, n)) / n  # gaps < pi
     m = np.arange(1, 5)
     amp = rng.uniform(0, 1, 4) * 0.35 / m
     phase = rng.uniform(0, 2 * np.pi, 4)

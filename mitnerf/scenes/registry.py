@@ -1,15 +1,10 @@
 """Named scenes and how to load them into Mitsuba.
 
-2D scenes (``square``, ``square_concave``, ``bunny``, ``tu``) are outlines stored in
-``scenes_xml/polygons/<name>.json``; mitnerf extrudes them into a prism PLY and loads
-``scenes_xml/<name>.xml`` with ``$mesh`` pointing at it. A user polygon goes through
-the same path with ``scenes_xml/custom2d.xml``. 3D objects (``vase``, ``ant``,
-``airplane``, ``nut``, ``brick``) write their mesh and texture on first use. Generated
-assets are cached under ``$MITNERF_CACHE`` with a content hash in the file name.
-
-Every library scene also comes in other looks (:mod:`mitnerf.scenes.looks`): a material
-and an environment light, chosen by arguments of :func:`get_scene` or by a name such as
-``bunny_glossy`` or ``vase_roughconductor_env``.
+2D scenes (``square``, ``square_concave``, ``bunny``, ``tu``) are outlines in ``scenes_xml/polygons/<name>.json``,
+extruded into a prism PLY that ``scenes_xml/<name>.xml`` loads as ``$mesh`` (a user polygon:
+``scenes_xml/custom2d.xml``). 3D objects write their mesh and texture on first use. Generated assets are cached
+under ``$MITNERF_CACHE`` with a content hash in the file name. Other looks (:mod:`mitnerf.scenes.looks`) are
+chosen by arguments of :func:`get_scene` or by a name such as ``bunny_glossy`` or ``vase_roughconductor_env``.
 """
 
 from __future__ import annotations
@@ -30,11 +25,8 @@ from .ply import write_ply
 
 SCENES_XML = Path(__file__).resolve().parents[2] / "scenes_xml"
 SCENES_2D = ("square", "square_concave", "bunny", "tu")
+SCENE_NAMES = SCENES_2D + OBJECTS_3D
 ASSET_VERSION = "2"  # bump when a builder changes what it writes
-
-
-def scene_names() -> tuple[str, ...]:
-    return SCENES_2D + OBJECTS_3D
 
 
 @dataclass
@@ -64,63 +56,46 @@ class SceneInfo:
     """``points`` (the XML's point lights) or ``env`` (a sky with a sun: render with ``path``)."""
 
     def load(self, **overrides):
-        """Load into the current Mitsuba variant. Errors name the file and the fix."""
-        scene = load_xml(self.xml, **{**self.variables, **overrides})
-        if self.material == "diffuse" and self.lighting == "points":
-            return scene
-        return styled_scene(self, scene.emitters())
+        """Load into the current Mitsuba variant (``overrides``: more ``$variables``); errors name the file and fix."""
+        import mitsuba as mi
+
+        ensure_variant()
+        path = Path(self.xml)
+        if not path.is_file():
+            raise DataError(f"scene file {path} does not exist; check the path (scenes live in {SCENES_XML})")
+        try:
+            scene = mi.load_file(str(path), **{k: str(v) for k, v in {**self.variables, **overrides}.items()})
+        except RuntimeError as exc:
+            msg = " ".join(str(exc).split())
+            msg = msg.split("] ", 1)[-1] if msg.startswith("[") else msg
+            raise DataError(f"cannot load scene file {path}: {msg}; fix the XML") from None
+        if not isinstance(scene, mi.Scene):      # a root <shape>, <bsdf>, ... loads as that object
+            raise DataError(f"scene file {path} holds a {type(scene).__name__}, not a scene; wrap it in "
+                            '<scene version="3.0.0"> ... </scene>')
+        if not scene.shapes():
+            raise DataError(f"scene file {path} has no shapes, so every view would be empty; add a <shape>")
+        plain = self.material == "diffuse" and self.lighting == "points"
+        return scene if plain else styled_scene(self, scene.emitters())
 
 
-def load_xml(path: Path, **variables):
-    import mitsuba as mi
-
-    ensure_variant()
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(f"scene file {path} does not exist; check the path (scenes live in {SCENES_XML})")
-    try:
-        scene = mi.load_file(str(path), **{k: str(v) for k, v in variables.items()})
-    except RuntimeError as exc:
-        msg = " ".join(str(exc).split())
-        msg = msg.split("] ", 1)[-1] if msg.startswith("[") else msg
-        raise DataError(f"cannot load scene file {path}: {msg}; fix the XML") from None
-    if not isinstance(scene, mi.Scene):      # a file whose root is one <shape>, <bsdf>, ... loads as that object
-        raise DataError(f"scene file {path} holds a {type(scene).__name__}, not a scene; wrap it in "
-                        '<scene version="3.0.0"> ... </scene>')
-    if not scene.shapes():
-        raise DataError(f"scene file {path} has no shapes, so every view would be empty; add a <shape>")
-    return scene
-
-
-def prism_mesh(polygon: Polygon) -> Path:
-    """Write (or reuse) the prism PLY of ``polygon``."""
+def prism_assets(polygon: Polygon, textured: bool = False) -> Path:
+    """The cache folder of ``polygon``'s prism, written on first use: ``prism.ply`` (vertex colours) or, ``textured``,
+    ``prism_uv.ply`` (UVs) and its barcode ``stripes.exr``; the polygon's name is made a safe file name."""
     def build(tmp: Path) -> None:
-        v, f, c = polygon.prism()
-        write_ply(tmp / "prism.ply", v, f, colors=c)
+        if textured:
+            import mitsuba as mi
+            v, f, uv = polygon.prism_uv()
+            write_ply(tmp / "prism_uv.ply", v, f, uv=uv)
+            mi.Bitmap(outline_stripes(polygon.perimeter())).write(str(tmp / "stripes.exr"))
+        else:
+            v, f, c = polygon.prism()
+            write_ply(tmp / "prism.ply", v, f, colors=c)
 
-    key = digest(ASSET_VERSION, polygon.points.tobytes())
-    return cache_entry(f"meshes/{_slug(polygon.name)}-{key}", build) / "prism.ply"
-
-
-def _slug(name) -> str:
-    """A user's polygon name as a safe file name (no "/", "..", or 300 characters)."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", str(name)).strip("._")[:40] or "polygon"
-
-
-def textured_prism(polygon: Polygon) -> tuple[Path, Path]:
-    """Write (or reuse) the prism with UVs and its barcode texture along the outline."""
-    import mitsuba as mi
-
-    ensure_variant()
-
-    def build(tmp: Path) -> None:
-        v, f, uv = polygon.prism_uv()
-        write_ply(tmp / "prism_uv.ply", v, f, uv=uv)
-        mi.Bitmap(outline_stripes(polygon.perimeter())).write(str(tmp / "stripes.exr"))
-
-    key = digest(ASSET_VERSION, polygon.points.tobytes())
-    folder = cache_entry(f"meshes/{_slug(polygon.name)}-textured-{key}", build)
-    return folder / "prism_uv.ply", folder / "stripes.exr"
+    if textured:
+        ensure_variant()
+    slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(polygon.name)).strip("._")[:40] or "polygon"
+    kind = "-textured" if textured else ""
+    return cache_entry(f"meshes/{slug}{kind}-{digest(ASSET_VERSION, polygon.points.tobytes())}", build)
 
 
 def with_look(info: SceneInfo, material: str = "diffuse", lighting: str = "points") -> SceneInfo:
@@ -130,16 +105,16 @@ def with_look(info: SceneInfo, material: str = "diffuse", lighting: str = "point
         return info
     mesh, texture = info.mesh, info.texture
     if material == "textured":
-        mesh, texture = textured_prism(info.polygon)
+        folder = prism_assets(info.polygon, textured=True)
+        mesh, texture = folder / "prism_uv.ply", folder / "stripes.exr"
     return dataclasses.replace(info, name=variant_name(info.name, material, lighting), mesh=mesh,
                                texture=texture, material=material, lighting=lighting)
 
 
 def scene_2d(polygon: Polygon, xml: Path | None = None) -> SceneInfo:
     """A 2D scene from any valid polygon (the registry's or a user's)."""
-    mesh = prism_mesh(polygon)
-    xml = xml or SCENES_XML / "custom2d.xml"
-    return SceneInfo(polygon.name, "2d", xml, {"mesh": str(mesh)}, polygon=polygon,
+    mesh = prism_assets(polygon) / "prism.ply"
+    return SceneInfo(polygon.name, "2d", xml or SCENES_XML / "custom2d.xml", {"mesh": str(mesh)}, polygon=polygon,
                      mesh=mesh, radius=polygon.radius())
 
 
@@ -151,44 +126,41 @@ def object_3d(name: str) -> SceneInfo:
     folder = cache_entry(f"objects/{name}-{digest(ASSET_VERSION, name)}", build)
     variables = {k: str(folder / v) for k, v in
                  (line.split("=", 1) for line in (folder / "variables.txt").read_text().splitlines())}
-    texture = Path(variables["texture"]) if "texture" in variables else None
     return SceneInfo(name, "3d", SCENES_XML / f"{name}.xml", variables, mesh=Path(variables["mesh"]), radius=1.0,
-                     texture=texture)
+                     texture=Path(variables["texture"]) if "texture" in variables else None)
 
 
 def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None = None,
               material: str | None = None, env: bool = False) -> SceneInfo:
     """Resolve a scene: a registry name, a path to an XML file, or a user polygon.
 
-    ``polygon`` may be a :class:`Polygon`, a list of points (a closed ring) or a
-    path to a JSON file; it takes precedence over ``scene``. A registry name may carry a
-    look (``bunny_glossy``, ``vase_plastic_env``); ``material`` and ``env`` choose one too.
-    """
+    ``polygon`` may be a :class:`Polygon`, a list of points (a closed ring) or a path to a JSON
+    file; it takes precedence over ``scene``. A registry name may carry a look (``bunny_glossy``,
+    ``vase_plastic_env``); ``material`` and ``env`` choose one too."""
+    lighting = "env" if env else "points"
     if polygon is not None:
         if not isinstance(polygon, Polygon):
             polygon = (Polygon.from_json(polygon) if isinstance(polygon, (str, Path))
                        else Polygon.from_points(polygon))
-        return with_look(scene_2d(polygon), material or "diffuse", "env" if env else "points")
+        return with_look(scene_2d(polygon), material or "diffuse", lighting)
     if scene is None:
-        raise DataError(f"no scene given; pass one of {', '.join(scene_names())} or a polygon")
+        raise DataError(f"no scene given; pass one of {', '.join(SCENE_NAMES)} or a polygon")
     name = str(scene)
     base, named_material, named_env = split_variant(name)
-    if base in SCENES_2D + OBJECTS_3D:
+    if base in SCENE_NAMES:
         if named_material and material and named_material != material:
             raise DataError(f"scene {name} already has material {named_material}; drop --material {material} "
                             f"or pass --scene {base}")
-        if base in SCENES_2D:
-            info = scene_2d(Polygon.from_json(SCENES_XML / "polygons" / f"{base}.json"), SCENES_XML / f"{base}.xml")
-        else:
-            info = object_3d(base)
-        return with_look(info, material or named_material or "diffuse", "env" if env or named_env else "points")
+        info = (scene_2d(Polygon.from_json(SCENES_XML / "polygons" / f"{base}.json"), SCENES_XML / f"{base}.xml")
+                if base in SCENES_2D else object_3d(base))
+        return with_look(info, material or named_material or "diffuse", "env" if named_env else lighting)
     if name.endswith(".xml"):
         path = Path(name)
         if not path.is_file():
             raise DataError(f"scene file {path} does not exist; check the path")
         info = SceneInfo(path.stem, "2d" if kind == "2d" else "3d", path.resolve())
         info.load()  # fail early on malformed XML
-        return with_look(info, material or "diffuse", "env" if env else "points")
-    raise DataError(
-        f"unknown scene {name!r}; choose one of {', '.join(scene_names())} (optionally with a look, "
-        "e.g. bunny_glossy or vase_roughconductor_env), give a path to a Mitsuba XML file, or pass --polygon FILE")
+        return with_look(info, material or "diffuse", lighting)
+    raise DataError(f"unknown scene {name!r}; choose one of {', '.join(SCENE_NAMES)} (optionally with a look, "
+                    "e.g. bunny_glossy or vase_roughconductor_env), give a path to a Mitsuba XML file, "
+                    "or pass --polygon FILE")
