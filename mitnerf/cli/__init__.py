@@ -1,10 +1,8 @@
 """``mitnerf`` / ``python -m mitnerf``: one sub-command per job, each a thin module.
 
-Every bad input ends in one line on stderr (``mitnerf: error: ...``, naming the problem
-and the fix) and exit status 2, with nothing written. A training run that stops
-(NaN, collapse) exits 1; an interrupted one 130 (SIGINT) or 143 (SIGTERM), after
-writing its checkpoint.
-"""
+Every bad input ends in one line on stderr (``mitnerf: error: ...``, naming the problem and the fix) and exit
+status 2, with nothing written. A training run that stops (NaN, collapse) exits 1; an interrupted one, after writing
+its checkpoint, 130 (SIGINT) or 143 (SIGTERM)."""
 
 from __future__ import annotations
 
@@ -13,7 +11,7 @@ import sys
 
 from .._variant import set_variant
 from ..errors import ConfigError, MitnerfError
-from . import data_cmds, experiment_cmd, fit_cmd, recipes_cmd, sweep_cmd, video_cmd
+from . import data_cmds, experiment_cmd, fit_cmd, video_cmd
 
 
 class Parser(argparse.ArgumentParser):
@@ -31,7 +29,7 @@ class Parser(argparse.ArgumentParser):
 def build_parser() -> Parser:
     parser = Parser(prog="mitnerf", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for module in (data_cmds, fit_cmd, recipes_cmd, video_cmd, experiment_cmd, sweep_cmd):
+    for module in (data_cmds, fit_cmd, video_cmd, experiment_cmd):
         module.register(sub)
     return parser
 

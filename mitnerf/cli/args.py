@@ -1,9 +1,5 @@
-"""Command-line values checked where they are typed, and the flags that override a recipe.
-
-Numbers go through :func:`number`, so ``--batch 0``, ``--lr -0.01`` or ``--time-budget nan``
-end in one line before anything runs. Recipe flags default to ``None``: the value then
-comes from the recipe (:mod:`mitnerf.train.recipes`); no default is written twice.
-"""
+"""Command-line values checked where they are typed (``--batch 0`` or ``--lr nan`` end in one line before anything
+runs), and the flags that override a recipe: they default to ``None``, the value then comes from the recipe."""
 
 from __future__ import annotations
 
@@ -22,10 +18,9 @@ def number(integer: bool = False, lo=None, hi=None, strict_lo: bool = False):
     def parse(text: str):
         try:
             value = float(text)
-            if integer:
-                if not value.is_integer():
-                    raise ValueError
-                value = int(value)
+            if integer and not value.is_integer():
+                raise ValueError
+            value = int(value) if integer else value
         except (ValueError, OverflowError):
             raise argparse.ArgumentTypeError(f"expected {'a whole number' if integer else 'a number'}, "
                                              f"got {text!r}") from None
@@ -39,11 +34,8 @@ def number(integer: bool = False, lo=None, hi=None, strict_lo: bool = False):
 
 
 def background(text: str) -> tuple:
-    named = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
-    if text in named:
-        return named[text]
     try:
-        values = tuple(float(v) for v in text.split(","))
+        values = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}.get(text) or tuple(map(float, text.split(",")))
     except ValueError:
         values = ()
     if len(values) != 3 or not all(0.0 <= v <= 1.0 for v in values):
@@ -107,8 +99,7 @@ def add_recipe_flags(p: argparse.ArgumentParser) -> None:
 
 def overrides(args) -> dict:
     """The settings the user typed, as ``{recipe key: value}``."""
-    out = {key: getattr(args, f"set_{key}") for _, key, _, _ in OVERRIDES}
-    out.update(dict(args.sets))
+    out = {**{key: getattr(args, f"set_{key}") for _, key, _, _ in OVERRIDES}, **dict(args.sets)}
     return {k: v for k, v in out.items() if v is not None}
 
 
@@ -134,9 +125,7 @@ def _kind(value) -> str:
 
 
 def check_set_types(recipe, sets: list) -> None:
-    """A ``--set KEY=VALUE`` must have the type of the setting it replaces (a number for a number,
-    a list of numbers for ``upsample_at``): a string or a list where a number goes would otherwise
-    pass some checks and fail in the middle of training. Unknown keys are left to ``validate``."""
+    """A ``--set KEY=VALUE`` must have the type of the setting it replaces; unknown keys are left to ``validate``."""
     r = recipe.model.render
     current = {**dataclasses.asdict(recipe.train),
                **{k: v for k, v in dataclasses.asdict(r).items() if k != "occupancy"},
@@ -148,31 +137,26 @@ def check_set_types(recipe, sets: list) -> None:
     current.update(recipe.model.field_args)
     for key, value in sets:
         old = current.get(key)
+        was = json.dumps(old, default=str).replace(" ", "")
         if value is None and old is not None:         # null would be ignored, silently
-            raise ConfigError(f"--set {key}=null: {key} cannot be null; give a value, e.g. --set {key}="
-                              f"{json.dumps(old, default=str).replace(' ', '')}")
+            raise ConfigError(f"--set {key}=null: {key} cannot be null; give a value, e.g. --set {key}={was}")
         if value is None and key not in current:
             raise ConfigError(f"--set {key}=null: the recipe has no setting {key!r}; see its settings with "
                               "`mitnerf recipes`")
-        if old is None:
-            continue
         ok = _kind(value) == _kind(old) or (isinstance(old, (list, tuple)) and not old and isinstance(value, list))
         if isinstance(value, list) and isinstance(old, (list, tuple)) and old:
             ok = all(_kind(v) == _kind(old[0]) for v in value)
-        if not ok:
-            was = json.dumps(old, default=str).replace(" ", "")
+        if old is not None and not ok:
             raise ConfigError(f"--set {key} must be {_kind(old)}, got {json.dumps(value, default=str)[:40]}; "
                               f"write it as the recipe does, e.g. --set {key}={was}")
 
 
 SAMPLE_BYTES = 32
-"""The least memory one sample of a training step costs (position, direction, interval, density,
-colour, weight; an MLP field adds its activations, kept for the backward pass)."""
+"""Bytes one sample of a training step costs at least (position, direction, interval, density, colour, weight)."""
 
 
 def check_step_memory(recipe) -> None:
-    """Refuse, before training, a step (``--batch`` rays x ``--samples`` + ``--fine``) that would
-    not fit in the machine's memory; the estimate is a lower bound."""
+    """Refuse a step of ``--batch`` x (``--samples`` + ``--fine``) samples that cannot fit in memory (a lower bound)."""
     r, t, args = recipe.model.render, recipe.train, recipe.model.field_args
     samples = int(t.batch_rays) * (int(r.n_coarse) + int(r.n_fine))
     mlp = int(args.get("width", 0) or 0) * int(args.get("depth", 0) or 0) + 2 * int(args.get("hidden", 0) or 0)

@@ -19,9 +19,9 @@ from .args import number
 
 def register(sub) -> None:
     p = sub.add_parser("dataset", help="render a dataset of a scene")
-    p.add_argument("--scene", default=None, help="scene name (with an optional look: bunny_glossy, "
+    p.add_argument("--scene", help="scene name (with an optional look: bunny_glossy, "
                    "vase_plastic_env), or a path to a Mitsuba XML file")
-    p.add_argument("--polygon", default=None, help="JSON file with a closed ring of [x, y] points (a 2D scene)")
+    p.add_argument("--polygon", help="JSON file with a closed ring of [x, y] points (a 2D scene)")
     p.add_argument("--out", required=True, help="output folder (new, empty, or an earlier dataset of mitnerf's)")
     p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files "
                    "(they are left alone)")
@@ -29,33 +29,30 @@ def register(sub) -> None:
     p.add_argument("--val", type=number(True, 0, 100_000), default=10, help="validation views")
     p.add_argument("--test", type=number(True, 0, 100_000), default=20, help="test views (evenly spaced, noise-free)")
     p.add_argument("--resolution", type=number(True, 0, 16384), default=100, help="pixels (per side in 3D)")
-    p.add_argument("--radius", type=number(False, 0, 1e4, True), default=None,
-                   help="camera distance (default 4 in 2D, 3.5 in 3D)")
-    p.add_argument("--fov", type=number(False, 0, 179, True), default=None, help="field of view in degrees")
+    p.add_argument("--radius", type=number(False, 0, 1e4, True), help="camera distance (default 4 in 2D, 3.5 in 3D)")
+    p.add_argument("--fov", type=number(False, 0, 179, True), help="field of view in degrees")
     p.add_argument("--layout", choices=["random", "even"], default="random", help="train/val placement")
     p.add_argument("--noise", type=number(False, 0, 100), default=1.0,
                    help="scale of all placement noise (1: radius 0.1, angle 2 deg, position 0.05, look 1 deg)")
     for name in ("radius-std", "angle-std", "position-std", "look-std"):
-        p.add_argument(f"--{name}", type=number(False, 0, 1e4), default=None, help="override one noise parameter")
-    p.add_argument("--spp", type=number(True, 1, 1 << 16), default=None, help="samples per pixel for colour "
+        p.add_argument(f"--{name}", type=number(False, 0, 1e4), help="override one noise parameter")
+    p.add_argument("--spp", type=number(True, 1, 1 << 16), help="samples per pixel for colour "
                    "(default: converged, 64 with all_lights, 1024 with path; fewer gives a noisy ground truth)")
-    p.add_argument("--material", choices=list(MATERIALS), default=None,
-                   help="surface: diffuse (default), plastic (needs --env), roughplastic, roughconductor, "
-                   "or textured (a barcode along a 2D outline)")
+    p.add_argument("--material", choices=list(MATERIALS), help="surface: diffuse (default), plastic (needs --env), "
+                   "roughplastic, roughconductor, or textured (a barcode along a 2D outline)")
     p.add_argument("--env", action="store_true", help="light the scene by a sky with a sun instead of point lights")
-    p.add_argument("--integrator", choices=["all_lights", "path"], default=None,
-                   help="all_lights: noise-free sum over point lights (default); path: Mitsuba's path tracer "
-                   "(default with --env)")
+    p.add_argument("--integrator", choices=["all_lights", "path"], help="all_lights: noise-free sum over point "
+                   "lights (default); path: Mitsuba's path tracer (default with --env)")
     p.add_argument("--seed", type=number(True, 0, 2 ** 32 - 1), default=0,
                    help="seed of placement noise and of the renderer")
-    p.add_argument("--format", choices=["nerf2d", "blender", "nerfstudio", "tiny_nerf"], default=None,
+    p.add_argument("--format", choices=["nerf2d", "blender", "nerfstudio", "tiny_nerf"],
                    help="file format (default: nerf2d for 2D, blender for 3D)")
-    p.add_argument("--kind", choices=["2d", "3d"], default=None, help="kind of a scene given as XML")
+    p.add_argument("--kind", choices=["2d", "3d"], help="kind of a scene given as XML")
     p.set_defaults(run=run_dataset)
 
     s = sub.add_parser("show", help="write the views strip, depth strip and rig plot of a dataset")
     s.add_argument("dataset", help="dataset folder (or tiny-NeRF .npz)")
-    s.add_argument("--out", default=None, help="where to write the PNGs (default: DATASET/figures)")
+    s.add_argument("--out", help="where to write the PNGs (default: DATASET/figures)")
     s.set_defaults(run=run_show)
 
 
@@ -68,8 +65,7 @@ def run_dataset(args) -> int:
     if (fmt == "nerf2d" and dim == 3) or (fmt in ("blender", "tiny_nerf") and dim == 2):
         raise ConfigError(f"--format {fmt} cannot hold a {dim}D dataset; use "
                           f"{'nerf2d or nerfstudio' if dim == 2 else 'blender, nerfstudio or tiny_nerf'}")
-    noise = noise_preset(args.noise)
-    noise.update({k: getattr(args, k) for k in noise if getattr(args, k) is not None})
+    noise = {k: v if getattr(args, k) is None else getattr(args, k) for k, v in noise_preset(args.noise).items()}
     rig = RigConfig(dim=dim, n_train=args.views, n_val=args.val, n_test=args.test, radius=args.radius,
                     resolution=args.resolution, fov=args.fov, layout=args.layout, seed=args.seed, **noise)
     rig.validate()
@@ -89,9 +85,8 @@ def run_show(args) -> int:
     ds = load_dataset(args.dataset)
     src = Path(args.dataset)
     out = Path(args.out) if args.out else (src / "figures" if src.is_dir() else src.with_suffix("") / "figures")
-    target = Output(out, "figures")
     paths = []
-    with target.staged() as tmp:
+    with Output(out, "figures").staged() as tmp:
         for name, split in ds.splits.items():
             paths += split_figures(split, name, tmp, ds.background, ds.near, ds.far)
         cams = {k: v.cameras for k, v in ds.splits.items()}

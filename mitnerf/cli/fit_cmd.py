@@ -1,14 +1,8 @@
-"""``mitnerf fit``: train a recipe on any dataset mitnerf reads, evaluate it, write it.
-
-    mitnerf fit --data DIR [--out RUN] [--field F | --recipe R] [--lr ...] [--auto]
-    mitnerf fit --resume RUN
-
-With no model flags the default recipe of the dataset's dimension trains (``mitnerf
-recipes``); the recipe is printed first. Everything is checked before training: the
-dataset (all splits, the test split included), the flags, the output folder. The last
-line is :meth:`~mitnerf.train.evaluate.RunRecord.line`: ``test PSNR <x> dB, ...``.
-Ctrl-C or SIGTERM writes the checkpoint (with ``--out``) and prints how to resume.
-"""
+"""``mitnerf fit --data DIR [--out RUN] [--field F | --recipe R] [--lr ...] [--auto]`` or ``mitnerf fit --resume RUN``:
+train a recipe (default: that of the dataset's dimension) on any dataset mitnerf reads, evaluate it, write it; the
+dataset (all splits), the flags and the output folder are checked first. The last line is ``test PSNR <x> dB, ...``;
+Ctrl-C or SIGTERM writes the checkpoint (with ``--out``) and prints how to resume. ``mitnerf recipes [--dim D]``
+lists the recipes, their settings, and the figures measured for them."""
 
 from __future__ import annotations
 
@@ -18,30 +12,35 @@ from pathlib import Path
 from .._io import Output
 from ..data.formats import load_dataset
 from ..errors import ConfigError
+from ..results import load_results
 from ..train.auto import choose_recipe
 from ..train.checkpoint import load_checkpoint
 from ..train.fit import check_dataset, fit
 from ..train.loop import Interrupted, TrainingFailed
+from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
 from .args import add_recipe_flags, overrides, recipe_from_args
 
 
 def register(sub) -> None:
     p = sub.add_parser("fit", help="train a field on a dataset (the default recipe unless told otherwise)")
-    p.add_argument("--data", default=None, help="dataset folder (NeRF2D, Blender, nerfstudio) or tiny-NeRF .npz")
-    p.add_argument("--out", default=None, help="folder for the checkpoint, metrics and figures")
+    p.add_argument("--data", help="dataset folder (NeRF2D, Blender, nerfstudio) or tiny-NeRF .npz")
+    p.add_argument("--out", help="folder for the checkpoint, metrics and figures")
     p.add_argument("--overwrite", action="store_true",
                    help="write into an --out folder that holds other files (they are left alone)")
-    p.add_argument("--resume", default=None, metavar="RUN", help="continue an interrupted run from its --out folder")
-    p.add_argument("--backend", choices=["drjit", "torch"], default=None, help="engine (default: drjit)")
+    p.add_argument("--resume", metavar="RUN", help="continue an interrupted run from its --out folder")
+    p.add_argument("--backend", choices=["drjit", "torch"], help="engine (default: drjit)")
     p.add_argument("--auto", action="store_true", help="choose view dependence and regularisation from a short "
                    "probe of the dataset, and say why")
     p.add_argument("--no-figures", action="store_true", help="write the checkpoint and metrics only")
     add_recipe_flags(p)
-    p.set_defaults(run=run)
+    p.set_defaults(run=run_fit)
+    r = sub.add_parser("recipes", help="list the training recipes with their measured figures")
+    r.add_argument("--dim", type=int, choices=[2, 3], help="only the recipes for this dimension")
+    r.set_defaults(run=run_recipes)
 
 
-def run(args) -> int:
+def run_fit(args) -> int:
     resume = None
     if args.resume:
         if overrides(args) or args.recipe or args.field or args.auto:
@@ -97,3 +96,17 @@ def train_and_report(dataset, recipe, backend: str, out: Output | None, resume=N
         print(f"wrote {out.path}")
     print(record.line() + f" ({backend})")
     return 0 if record.status == "ok" else 1
+
+
+def run_recipes(args) -> int:
+    results = load_results()
+    for name, r in RECIPES.items():
+        if args.dim and r.dim != args.dim:
+            continue
+        print(f"{r.summary()}{' [default]' if DEFAULT[r.dim] == name else ''}\n    {r.about}")
+        for key, entry in sorted(results.items()):
+            if entry.get("recipe") == name:
+                print(f"    measured: {entry['summary']} ({key}; `{entry['command']}`)")
+    if not results:
+        print("(no measured figures: results.json is missing; `make bench` writes it)")
+    return 0

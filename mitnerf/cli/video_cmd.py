@@ -1,15 +1,7 @@
-"""``mitnerf video``: a turn-table video of a trained 3D field, its mesh, and how close it is.
-
-    mitnerf video --checkpoint out/vase-run --out out/vase-video --frames 120 --resolution 100
-
-writes into ``--out``: ``color.gif``/``color.mp4`` and ``depth.gif``/``depth.mp4`` (a 360
-degree orbit at ``--elevation`` degrees and ``--radius``, looking at the origin), and,
-unless ``--no-mesh``, ``mesh.ply`` (the density isosurface at ``--level``, see
-:mod:`mitnerf.geometry.mesh` for how to choose it), ``mesh.png`` (the learned mesh beside
-the ground truth) and, when the checkpoint's dataset names its ground-truth mesh,
-``chamfer.json`` with the Chamfer distance (printed too). The last line reads
-``video <n> frames <W>x<H> in <t> s (<fps> frames/s)``.
-"""
+"""``mitnerf video --checkpoint RUN --out DIR``: ``color`` and ``depth`` ``.gif``/``.mp4`` (a 360 degree orbit of a
+trained 3D field, looking at the origin) and, unless ``--no-mesh``, ``mesh.ply`` (the density isosurface at
+``--level``), ``mesh.png`` (beside the ground truth) and, when the dataset names its ground-truth mesh,
+``chamfer.json`` (printed too). The last line reads ``video <n> frames <W>x<H> in <t> s (<fps> frames/s)``."""
 
 from __future__ import annotations
 
@@ -23,7 +15,7 @@ from ..geometry import LEVEL, chamfer_distance, extract_mesh
 from ..scenes.objects3d import OBJECTS_3D
 from ..scenes.registry import get_scene
 from ..train.checkpoint import load_checkpoint
-from ..viz.meshes import plot_mesh_comparison
+from ..viz.rigs import plot_mesh_comparison
 from ..viz.video import OrbitConfig, orbit_video
 from .args import number
 
@@ -58,22 +50,17 @@ def register(sub) -> None:
                    "mitnerf's geometry metrics; grid fields peak around 10-30, so level 10 cuts holes in them)")
     p.add_argument("--mesh-resolution", type=number(True, 2, 1024), default=128, help="marching-cubes nodes per side")
     p.add_argument("--chamfer-points", type=number(True, 1, 10 ** 7), default=100_000, help="surface samples per mesh")
-    p.add_argument("--backend", choices=["drjit", "torch"], default=None, help="default: the checkpoint's")
+    p.add_argument("--backend", choices=["drjit", "torch"], help="default: the checkpoint's")
     p.set_defaults(run=run)
 
 
 def ground_truth(meta: dict) -> tuple[Path | None, Path | None]:
-    """The ground-truth mesh and texture a dataset's metadata names; scene assets that
-    were deleted from the cache are rebuilt."""
-    mesh = meta.get("mesh")
-    texture = meta.get("texture")
-    if mesh and not Path(mesh).exists() and meta.get("scene"):
-        if meta["scene"] in OBJECTS_3D:
-            info = get_scene(meta["scene"])
-            mesh, texture = info.mesh, info.variables.get("texture")
-    mesh = Path(mesh) if mesh and Path(mesh).exists() else None
-    texture = Path(texture) if texture and Path(texture).exists() else None
-    return mesh, texture
+    """The ground-truth mesh and texture a dataset names (``None``: missing); deleted scene assets are rebuilt."""
+    mesh, texture = meta.get("mesh"), meta.get("texture")
+    if mesh and not Path(mesh).exists() and meta.get("scene") in OBJECTS_3D:
+        info = get_scene(meta["scene"])
+        mesh, texture = info.mesh, info.variables.get("texture")
+    return tuple(Path(p) if p and Path(p).exists() else None for p in (mesh, texture))
 
 
 def run(args) -> int:
@@ -105,8 +92,7 @@ def write_mesh_outputs(model, out: Path, level, resolution: int, n_points: int, 
     print(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.faces)} faces at density level "
           f"{mesh.level:.3g} ({resolution}^3 grid in {mesh.info['seconds']:.3g} s)")
     truth, texture = ground_truth(model.dataset_meta)
-    result = {"level": mesh.level, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}
-    note = ""
+    result, note = {"level": mesh.level, "vertices": len(mesh.vertices), "faces": len(mesh.faces)}, ""
     if truth is None:
         print("no ground-truth mesh in the checkpoint's dataset metadata: no Chamfer distance")
     else:

@@ -1,11 +1,41 @@
-"""Matplotlib panels shared by the experiments' figure grids (views strips, depth, density)."""
+"""Matplotlib helpers shared by the figures: pyplot, saving, the density image, the experiments' panels."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
 from .strips import colorize_depth, views_strip
-from .training import density_image
+
+
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig, path, dpi: int = 110, rect=None) -> Path:
+    """Lay out (within ``rect`` of the figure), write and close a figure; returns the path."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout(rect=rect)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return Path(path)
+
+
+def density_image(density, bound: float, dim: int, res: int = 256) -> np.ndarray:
+    """``density(points) -> [m]`` on a ``res x res`` grid over ``[-bound, bound]^2`` (3D: the z = 0
+    slice), image row 0 at +y: the picture of a field's geometry."""
+    u = np.linspace(-bound, bound, res, dtype=np.float32)
+    X, Y = np.meshgrid(u, u[::-1])                      # image row 0 is +y
+    pts = np.stack([X.ravel(), Y.ravel()] + ([np.zeros(X.size, np.float32)] if dim == 3 else []), 1)
+    return np.asarray(density(pts)).reshape(res, res)
 
 
 def strip_panel(ax, images: np.ndarray, title: str = "") -> None:
@@ -18,9 +48,7 @@ def strip_panel(ax, images: np.ndarray, title: str = "") -> None:
 def depth_panel(ax, depth: np.ndarray, opacity: np.ndarray | None, near: float, far: float, title: str = "") -> None:
     """Termination depth of 2D views as a strip; pixels with opacity < 0.5 are black."""
     d = depth if opacity is None else np.where(opacity > 0.5, depth / np.maximum(opacity, 1e-6), np.inf)
-    ax.imshow(views_strip(colorize_depth(d, near, far), column_width=1), aspect="auto", interpolation="nearest")
-    ax.set_title(title, fontsize=8)
-    ax.set_xticks([]), ax.set_yticks([])
+    strip_panel(ax, colorize_depth(d, near, far), title)
 
 
 def density_panel(ax, source, bound: float, outline=None, title: str = "", res: int = 160) -> None:
@@ -34,22 +62,3 @@ def density_panel(ax, source, bound: float, outline=None, title: str = "", res: 
         ax.plot(pts[:, 0], pts[:, 1], color="cyan", lw=0.6, alpha=0.8)
     ax.set_title(title, fontsize=8)
     ax.set_xticks([]), ax.set_yticks([])
-
-
-def save(fig, path, dpi: int = 110) -> None:
-    """Lay out, write and close a figure."""
-    import matplotlib.pyplot as plt
-
-    fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-
-
-def pyplot():
-    """matplotlib's pyplot on the Agg backend (no display needed)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt

@@ -1,5 +1,4 @@
-"""Image strips: the NeRF2D "views strip" (every 1D view a column, side by side), its
-depth strip, and contact sheets for 3D images. Arrays in, uint8 images out."""
+"""Image strips (the NeRF2D "views strip": every 1D view a column), depth colours, 3D contact sheets, PNG files."""
 
 from __future__ import annotations
 
@@ -12,9 +11,7 @@ from ..data.color import to_uint8
 
 def views_strip(images: np.ndarray, column_width: int = 4) -> np.ndarray:
     """``[n, H, 1, 3]`` display-space views -> ``[H, n * column_width, 3]`` (one column each)."""
-    images = np.asarray(images)
-    n, H = images.shape[:2]
-    strip = images[:, :, 0, :].transpose(1, 0, 2)                # [H, n, 3]
+    strip = np.asarray(images)[:, :, 0, :].transpose(1, 0, 2)    # [H, n, 3]
     return np.repeat(strip, column_width, axis=1)
 
 
@@ -60,15 +57,8 @@ def save_image(path: str | Path, image: np.ndarray, scale: int = 1) -> Path:
 
 def split_figures(split, name: str, out: Path, background, near=None, far=None) -> list[Path]:
     """Colour and depth strips (2D) or sheets (3D) of one split."""
-    target = split.target(background)
-    paths = []
-    if split.cameras.dim == 2:
-        paths.append(save_image(out / f"{name}_views.png", views_strip(target), scale=2))
-        if split.depth is not None:
-            depth = colorize_depth(split.depth, near, far)
-            paths.append(save_image(out / f"{name}_depth.png", views_strip(depth), scale=2))
-    else:
-        paths.append(save_image(out / f"{name}_views.png", contact_sheet(target)))
-        if split.depth is not None:
-            paths.append(save_image(out / f"{name}_depth.png", contact_sheet(colorize_depth(split.depth, near, far))))
+    tile, scale = (views_strip, 2) if split.cameras.dim == 2 else (contact_sheet, 1)
+    paths = [save_image(out / f"{name}_views.png", tile(split.target(background)), scale)]
+    if split.depth is not None:
+        paths.append(save_image(out / f"{name}_depth.png", tile(colorize_depth(split.depth, near, far)), scale))
     return paths
