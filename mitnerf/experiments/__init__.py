@@ -1,8 +1,5 @@
-"""Experiments, one module each: ``Config`` (a dataclass), ``quick(seed)`` (about a minute)
-and ``run(cfg, out) -> rows``, which also writes CSV files, figures and ``report.md`` into
-``out``. Shared plumbing is in :mod:`.report`; runs fit and evaluate through
-:func:`mitnerf.train.fit.fit_and_evaluate`, so every row is a ``RunRecord`` row.
-"""
+"""Experiments, one module each: ``Config`` (a dataclass), ``quick(seed)`` (about a minute) and
+``run(cfg, out) -> rows``, which also writes CSV files, figures and ``report.md`` into ``out``."""
 
 from __future__ import annotations
 

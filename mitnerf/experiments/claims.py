@@ -1,13 +1,8 @@
 """The claims of the two source reports, each with the figure of ours that tests it.
 
-A :class:`Claim` holds a short passage quoted verbatim from its report (``tests/test_claims.py``
-checks every quote against the report when the report is at hand), the report's own figure,
-the experiment of ours that measures it, and a judge: a function of that experiment's
-recorded rows (``results.json``, key ``experiment/<name>``) that returns our figure and
-where the claim stands. ``REPRODUCTION.md`` (:mod:`.reproduction`) is rendered from these.
-
-Sources: ``nerf2d`` is the NeRF2D blog post ("Scaling Down NeRF with NeRF2D");
-``window-shop`` is Zhengxun Wu, "Online Window Shopping with NeRF" (Stanford CS231n).
+Every :class:`Claim` quotes its report verbatim and judges the rows recorded for one experiment of
+ours (``results.json``, key ``experiment/<name>``). Sources: ``nerf2d``, the NeRF2D blog post;
+``window-shop``, Zhengxun Wu, "Online Window Shopping with NeRF" (Stanford CS231n).
 """
 
 from __future__ import annotations
@@ -52,16 +47,11 @@ class Claim:
     judge: Callable[[list[dict]], tuple[str, str]]
     """Rows of that experiment -> (our figure, ``REPRODUCED``/``PARTLY``/``NOT`` + the measured cause)."""
     deviations: str
-    """What differs from the report for this claim (beyond the source's shared deviations) and
-    how the claim is judged."""
+    """What differs from the report for this claim (beyond the source's shared deviations), how it is judged."""
 
 
 def _f(v, spec=".1f") -> str:
     return "-" if not math.isfinite(num(v)) else format(num(v), spec)
-
-
-def _means(rows: list[dict], by: list[str], metrics=("psnr", "ssim", "iou", "depth_error", "train_time", "steps")):
-    return {tuple(s[k] for k in by): s for s in summarise(rows, by, metrics)}
 
 
 def _key(v):
@@ -72,33 +62,32 @@ def _key(v):
         return v
 
 
+def _means(rows: list[dict], by: list[str], metrics=("psnr", "ssim", "iou", "depth_error", "train_time", "steps")):
+    """{values of ``by``: the summary of those rows}, the ``by`` values read as numbers where they are."""
+    rows = [{**r, **{k: _key(r[k]) for k in by}} for r in rows]
+    return {tuple(s[k] for k in by): s for s in summarise(rows, by, metrics)}
+
+
 # ---------------------------------------------------------------- NeRF2D
-
-
 def _pe(rows):
-    m = _means([{**r, "L": _key(r["L"])} for r in rows], ["L"])
+    m = _means(rows, ["L"])
     Ls = sorted(k[0] for k in m)
     line = ", ".join(f"L={L}: {_f(m[(L,)]['psnr'])}" for L in Ls) + " dB"
     low = min(Ls, key=lambda L: abs(L - 1))
     best = max((L for L in Ls if L > low), key=lambda L: m[(L,)]["psnr"], default=low)
     rises = m[(best,)]["psnr"] - m[(low,)]["psnr"]
-    verdict = REPRODUCED if rises > 1.0 else NOT
-    return line, f"{verdict}: {rises:+.1f} dB from L = {low} to the best, L = {best}"
+    return line, f"{REPRODUCED if rises > 1.0 else NOT}: {rises:+.1f} dB from L = {low} to the best, L = {best}"
 
 
 def _pe_speed(rows):
-    m = _means([{**r, "L": _key(r["L"])} for r in rows], ["L"])
-    L = max(m, key=lambda k: m[k]["psnr"])
-    s = m[L]
-    verdict = REPRODUCED if s["train_time"] < 60 else NOT
-    return (f"{_f(s['train_time'])} s to {_f(s['psnr'])} dB (L = {L[0]}, {int(s['steps'])} steps)",
-            f"{verdict} on 2 CPU cores")
+    s = max(_means(rows, ["L"]).values(), key=lambda s: s["psnr"])
+    return (f"{_f(s['train_time'])} s to {_f(s['psnr'])} dB (L = {s['L']}, {int(s['steps'])} steps)",
+            f"{REPRODUCED if s['train_time'] < 60 else NOT} on 2 CPU cores")
 
 
 def _depth_cells(rows):
-    m = _means([{**r, "views": _key(r["views"])} for r in rows], ["scene", "views", "method"])
     cells = {}
-    for (scene, views, method), s in m.items():
+    for (scene, views, method), s in _means(rows, ["scene", "views", "method"]).items():
         cells.setdefault((scene, views), {})[method] = s
     return {k: v for k, v in cells.items() if {"NeRF", "DS-NeRF"} <= set(v)}
 
@@ -123,8 +112,8 @@ def _depth_scene(scene):
         cells = {v: c for (s, v), c in _depth_cells(rows).items() if s == scene}
         if not cells:
             return "-", MISSING
-        line = "; ".join(f"{v} views: IoU {_f(c['NeRF']['iou'], '.2f')} -> {_f(c['DS-NeRF']['iou'], '.2f')}, depth err. "
-                         f"{_f(c['NeRF']['depth_error'], '.3f')} -> {_f(c['DS-NeRF']['depth_error'], '.3f')}"
+        line = "; ".join(f"{v} views: IoU {_f(c['NeRF']['iou'], '.2f')} -> {_f(c['DS-NeRF']['iou'], '.2f')}, "
+                         f"depth err. {_f(c['NeRF']['depth_error'], '.3f')} -> {_f(c['DS-NeRF']['depth_error'], '.3f')}"
                          for v, c in sorted(cells.items()))
         better = sum(c["DS-NeRF"]["iou"] > c["NeRF"]["iou"] for c in cells.values())
         best_iou = max(c["DS-NeRF"]["iou"] for c in cells.values())
@@ -134,8 +123,7 @@ def _depth_scene(scene):
 
 
 def _pixel(rows):
-    ev = [r for r in rows if r.get("group") == "eval"]
-    m = _means([{**r, "k": _key(r["k"])} for r in ev], ["scene", "method", "k"])
+    m = _means([r for r in rows if r.get("group") == "eval"], ["scene", "method", "k"])
     parts, full, part = [], 0, 0
     scenes = sorted({k[0] for k in m})
     for scene in scenes:
@@ -150,8 +138,6 @@ def _pixel(rows):
 
 
 # ---------------------------------------------------------------- window shopping
-
-
 def _ws(rows):
     """{object: {row label: row}} (one seed per row)."""
     out: dict = {}
@@ -161,21 +147,17 @@ def _ws(rows):
 
 
 def _per_object(fn, cause=None):
-    """A judge from ``fn(rows of one object) -> (figure, ok: bool | None)``: reproduced on every
-    object, partly on some, not on any; where it is not reproduced everywhere, ``cause({object:
-    rows})`` states the measured cause after the verdict."""
+    """A judge from ``fn(rows of one object) -> (figure, ok)``: reproduced on every object, partly on some,
+    not on any; where not reproduced everywhere, ``cause({object: rows})`` states the measured cause."""
     def judge(rows):
-        parts, oks = [], []
         by_object = _ws(rows)
-        for obj, rs in by_object.items():
-            fig, ok = fn(rs)
-            parts.append(f"{obj}: {fig}")
-            oks.append(ok)
-        if not oks:
+        if not by_object:
             return "-", MISSING
+        figs = {obj: fn(rs) for obj, rs in by_object.items()}
+        oks = [ok for _, ok in figs.values()]
         verdict = REPRODUCED if all(oks) else PARTLY if any(oks) else NOT
         why = cause(by_object) if cause and verdict != REPRODUCED else ""
-        return "; ".join(parts), verdict + (f": {why}" if why else "")
+        return "; ".join(f"{obj}: {fig}" for obj, (fig, _) in figs.items()), verdict + (f": {why}" if why else "")
     return judge
 
 
@@ -221,8 +203,7 @@ def _nc(rs):
 
 
 def _nc_cause(by_object) -> str:
-    """No N_c = 128 row collapses; what does drop as far at 5 photos is view dependence with NeRF's
-    four direction frequencies."""
+    """No N_c = 128 row collapses; at 5 photos NeRF's four direction frequencies drop as far."""
     big = [r for rs in by_object.values() for k, r in rs.items() if k in ("8", "10")]
     four = [_psnr(rs, "7, four direction frequencies") - _psnr(rs, "7") for rs in by_object.values()]
     four = [d for d in four if math.isfinite(d)]
@@ -248,10 +229,6 @@ def _hier_cause(by_object) -> str:
             "the loss is the steps it costs")
 
 
-def _vd_cause(by_object) -> str:
-    return "our objects are diffuse under point lights: there is no view-dependent effect to recreate"
-
-
 def _hier(rs):
     d = [(v, _psnr(rs, f"fine pass, {v} images") - _psnr(rs, c)) for v, c in ((5, "9"), (25, "5"))]
     d = [(v, x) for v, x in d if math.isfinite(x)]
@@ -261,7 +238,6 @@ def _hier(rs):
 def _vd(rs):
     d = _psnr(rs, "6, view dependence on") - _psnr(rs, "6")
     return f"view dependence on - off (10 images) {d:+.2f} dB", d > 0.3
-
 
 
 CLAIMS = [
@@ -286,11 +262,13 @@ CLAIMS = [
           _depth_scene("square_concave"), "geometry scored as IoU with the true outline"),
     Claim("ds-tu", "nerf2d", "Depth Supervision",
           "Depth Supervised NeRF can accurately reconstruct even the complex geometry of the TU Scene",
-          "the TU outline recovered (figure)", "depth", _depth_scene("tu"), "geometry scored as IoU with the true outline"),
+          "the TU outline recovered (figure)", "depth", _depth_scene("tu"),
+          "geometry scored as IoU with the true outline"),
     Claim("pixelnerf", "nerf2d", "Pixel Space Features",
           "PixelNeRF2D outperforms NeRF2D with fewer views but shows worse performance with greater numbers of views",
           "ahead at 1-5 views, behind at 9 (figures on bunny and TU)", "pixelnerf", _pixel,
-          "pixelNeRF trained on procedural outlines (frozen random and trained CNN encoders), 3 draws of the input views per k"),
+          "pixelNeRF trained on procedural outlines (frozen random and trained CNN encoders), "
+          "3 draws of the input views per k"),
     Claim("ws-speed", "window-shop", "3.1 Model Fine Tuning",
           "the average training speed is 0.25 seconds per iteration", "0.25 s per iteration (GPU)", "window-shop",
           _per_object(_speed), "a CPU, not a GPU; 1024 rays per step (theirs not stated)"),
@@ -305,7 +283,8 @@ CLAIMS = [
           "23.0-25.0 dB from 5 to 100 images", "window-shop", _per_object(_flat), "judged as: spread within 3 dB"),
     Claim("ws-best", "window-shop", "5. Conclusion",
           "with which we are able to synthesize unseen view with a PSNR around 24",
-          "best: 5 images, L = 10, N_c = 64 (combination 9), 24.0 dB", "window-shop", _per_object(_best), "judged as: combination 9 within 0.5 dB of the best 5-image row"),
+          "best: 5 images, L = 10, N_c = 64 (combination 9), 24.0 dB", "window-shop", _per_object(_best),
+          "judged as: combination 9 within 0.5 dB of the best 5-image row"),
     Claim("ws-nc", "window-shop", "5. Conclusion",
           "regresses the model with a smaller training set (experiment 7 & 8)",
           "N_c 64 -> 128: +0.7 dB at 100 images (1 -> 3), -8.0 dB at 5 images (7 -> 8)", "window-shop",
@@ -316,7 +295,8 @@ CLAIMS = [
           "fine pass of 64 samples added to combinations 9 and 5; judged as: under 1 dB either way"),
     Claim("ws-view-dependence", "window-shop", "1.3.1 View Dependence",
           "removing view dependency prevents the model from recreating some lighting effects",
-          "NeRF's ablation: -3.35 dB without it", "window-shop", _per_object(_vd, _vd_cause),
+          "NeRF's ablation: -3.35 dB without it", "window-shop", _per_object(_vd, lambda _: (
+              "our objects are diffuse under point lights: there is no view-dependent effect to recreate")),
           "combination 6 with view dependence switched on; judged as: more than 0.3 dB gain"),
 ]
 """Every claim with a figure or a trend in the two reports."""

@@ -1,16 +1,9 @@
-"""Depth supervision (DS-NeRF) against plain NeRF from sparse views.
+"""Depth supervision (DS-NeRF) against plain NeRF from sparse views (NeRF2D's experiment).
 
-NeRF2D's experiment: for each scene and each number of evenly spaced training views,
-the same field (the ``vanilla-2d`` recipe at the sizes below) is trained with the
-photometric loss only (NeRF) and with DS-NeRF's depth loss added (``depth_weight`` x the
-KL divergence of :mod:`mitnerf.train.losses`, on the dataset's exact pixel-centre depths,
-Gaussian width ``depth_sigma``), ``seeds`` times. Expected (Deng et al. 2022; NeRF2D): with
-few views NeRF fits the images with wrong geometry (floaters, filled concavities); depth
-supervision recovers the shape, the notch of ``square_concave`` included.
-
-Writes ``depth.csv``, ``depth_<scene>.png`` (per scene: test views, test depth and the
-density field of each method and view count, ground truth on top), ``depth_summary.png``
-and ``report.md``.
+Per scene and number of evenly spaced training views, the ``vanilla-2d`` recipe trains ``seeds``
+times with the photometric loss only (NeRF) and with DS-NeRF's depth loss added (``depth_weight`` x
+the KL divergence of :mod:`mitnerf.train.losses`, on the exact pixel-centre depths). Writes
+``depth.csv``, ``depth_<scene>.png``, ``depth_summary.png`` and ``report.md``.
 """
 
 from __future__ import annotations
@@ -64,6 +57,7 @@ def quick(seed: int = 0) -> Config:
 
 def run(cfg: Config, out: Path) -> list[dict]:
     rows = []
+    plt = pyplot()
     for scene in cfg.scenes:
         panels = []
         for k in cfg.views:
@@ -79,10 +73,19 @@ def run(cfg: Config, out: Path) -> list[dict]:
                     rows.append(row)
                     if s == 0:
                         panels.append((f"{method}, {k} views", r.backend.density, rec))
-        _scene_figure(scene, ds, panels, out / f"depth_{scene}.png")
+        fig, axes = plt.subplots(len(panels) + 1, 3, figsize=(9, 1.25 * (len(panels) + 1)))
+        strip_panel(axes[0, 0], ds["test"].target(ds.background), "ground truth")
+        depth_panel(axes[0, 1], ds["test"].depth, None, ds.near, ds.far, "true depth")
+        axes[0, 2].axis("off")
+        for a, (label, density, rec) in zip(axes[1:], panels):
+            strip_panel(a[0], rec.renders["rgb"], f"{label}: PSNR {rec.psnr:.1f}")
+            depth_panel(a[1], rec.renders["depth"], rec.renders["opacity"], ds.near, ds.far,
+                        f"depth error {rec.depth_error:.3f}")
+            density_panel(a[2], density, ds.bound, ds.meta.get("polygon"), "density")
+        fig.suptitle(scene)
+        save(fig, out / f"depth_{scene}.png")
     write_csv(out / "depth.csv", rows)
     summary = summarise(rows, ["scene", "views", "method"], ("psnr", "depth_error", "iou"))
-    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
     for metric, a in zip(("psnr", "depth_error"), axes):
         for scene in cfg.scenes:
@@ -96,9 +99,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
         a.grid(alpha=0.3)
     axes[1].legend(fontsize=6, ncol=2)
     save(fig, out / "depth_summary.png")
-    table = [{"scene": s["scene"], "views": s["views"], "method": s["method"], "runs": s["runs"],
-              "PSNR": mean_std(s, "psnr"), "depth error": mean_std(s, "depth_error", ".3f"),
-              "IoU": mean_std(s, "iou", ".3f")} for s in summary]
+    table = [{**{k: s[k] for k in ("scene", "views", "method", "runs")}, "PSNR": mean_std(s, "psnr"),
+              "depth error": mean_std(s, "depth_error", ".3f"), "IoU": mean_std(s, "iou", ".3f")} for s in summary]
     figs = "\n\n".join(f"### {s}\n\n![{s}](depth_{s}.png)" for s in cfg.scenes)
     write_report(out, "Depth supervision (DS-NeRF) from sparse views", [
         ("Setup", f"Recipe `vanilla-2d` at {cfg.width} x {cfg.depth}, L = {cfg.pos_L}, {cfg.samples} samples per "
@@ -121,20 +123,3 @@ def wins(summary: list[dict]) -> str:
     psnr = sum(p["DS-NeRF"]["psnr"] > p["NeRF"]["psnr"] for p in full)
     return (f"Depth supervision lowers the mean test depth error in {depth} of {len(full)} (scene, views) cells and "
             f"raises the mean test PSNR in {psnr} of {len(full)}.")
-
-
-def _scene_figure(scene, ds, panels, path) -> None:
-    plt = pyplot()
-    n = len(panels) + 1
-    fig, axes = plt.subplots(n, 3, figsize=(9, 1.25 * n))
-    test = ds["test"]
-    strip_panel(axes[0, 0], test.target(ds.background), "ground truth")
-    depth_panel(axes[0, 1], test.depth, None, ds.near, ds.far, "true depth")
-    axes[0, 2].axis("off")
-    for row, (label, density, rec) in zip(axes[1:], panels):
-        r = rec.renders
-        strip_panel(row[0], r["rgb"], f"{label}: PSNR {rec.psnr:.1f}")
-        depth_panel(row[1], r["depth"], r["opacity"], ds.near, ds.far, f"depth error {rec.depth_error:.3f}")
-        density_panel(row[2], density, ds.bound, ds.meta.get("polygon"), "density")
-    fig.suptitle(scene)
-    save(fig, path)

@@ -1,15 +1,8 @@
-"""Positional encoding: how many frequencies does the vanilla NeRF need on the bunny?
+"""Positional encoding: how many frequencies does the vanilla NeRF need? (NeRF2D's experiment)
 
-NeRF2D's experiment: the same MLP (the ``vanilla-2d`` recipe at ``width`` x ``depth``,
-``samples`` per ray, ``steps`` steps) is trained on the 2D bunny (50 noisy views of
-100 px) with L position frequencies for every L in ``Ls`` (L = 0: the raw coordinates;
-NeRF2D calls L = 1 "without positional encoding"), ``seeds`` times each. Expected
-(Tancik et al. 2020; NeRF2D): a low L gives a blurry, low-frequency density field, and
-test PSNR rises with L.
-
-Writes ``pe.csv`` (one row per run), ``pe_psnr.png`` (PSNR and train time against L,
-mean and spread over seeds), ``pe_density.png`` (the density fields, as NeRF2D shows
-them), ``pe_views.png`` (test views per L) and ``report.md``.
+The ``vanilla-2d`` recipe trains with L position frequencies for every L in ``Ls`` (L = 0: the raw
+coordinates), ``seeds`` times each. Writes ``pe.csv``, ``pe_psnr.png``, ``pe_density.png``,
+``pe_views.png`` and ``report.md``.
 """
 
 from __future__ import annotations
@@ -77,10 +70,9 @@ def run(cfg: Config, out: Path) -> list[dict]:
     fig, ax = plt.subplots(1, 2, figsize=(9, 3.2))
     Ls = [s["L"] for s in summary]
     ax[0].errorbar(Ls, [s["psnr"] for s in summary], yerr=[s["psnr_std"] for s in summary], fmt="o-", capsize=3)
-    ax[0].set(xlabel="position frequencies L", ylabel="test PSNR [dB]")
     ax[1].plot(Ls, [s["train_time"] for s in summary], "s-", color="tab:orange")
-    ax[1].set(xlabel="position frequencies L", ylabel="train time [s]")
-    for a in ax:
+    for a, ylabel in zip(ax, ("test PSNR [dB]", "train time [s]")):
+        a.set(xlabel="position frequencies L", ylabel=ylabel)
         a.grid(alpha=0.3)
     fig.suptitle(f"{cfg.scene}: vanilla {cfg.width} x {cfg.depth}, {cfg.steps} steps, {cfg.seeds} seed(s)")
     save(fig, out / "pe_psnr.png")
@@ -105,8 +97,9 @@ def run(cfg: Config, out: Path) -> list[dict]:
                   "it does not rise monotonically with L (see the table)."))
     write_report(out, f"Positional encoding on the {cfg.scene}", [
         ("Setup", f"Recipe `vanilla-2d` at {cfg.width} x {cfg.depth}, {cfg.samples} stratified samples per ray, "
-                  f"{cfg.steps} steps of {cfg.batch_rays} rays (lr {cfg.lr:g}), {cfg.seeds} seed(s) per L; {cfg.n_train} noisy training views of 100 px, "
-                  "20 evenly spaced test views. L = 0 feeds the raw coordinates (no encoding)."),
+                  f"{cfg.steps} steps of {cfg.batch_rays} rays (lr {cfg.lr:g}), {cfg.seeds} seed(s) per L; "
+                  f"{cfg.n_train} noisy training views of 100 px, 20 evenly spaced test views. L = 0 feeds the raw "
+                  "coordinates (no encoding)."),
         ("Results", markdown_table(table) + "\n" + verdict + "\n\n![PSNR and train time against L](pe_psnr.png)"),
         ("Density fields", "The density on the plane (log scale); the true outline in cyan.\n\n"
                            "![density per L](pe_density.png)\n\n![test views per L](pe_views.png)"),

@@ -1,21 +1,10 @@
 """pixelNeRF in 2D against NeRF with 1, 3, 5 and 9 input views (NeRF2D's experiment).
 
-**Question.** pixelNeRF (Yu et al. 2021) learns a prior across scenes, so with one to
-three views it should beat a NeRF fitted to those views alone; with more views the
-per-scene NeRF should catch up (the pixelNeRF paper's DTU table; NeRF2D's figures).
-
-**Protocol.** pixelNeRF (:mod:`mitnerf.fields.pixelnerf`, the ``pixelnerf-2d`` recipe,
-:mod:`mitnerf.train.pixelnerf`) is trained on ``n_outlines`` procedural outlines
-(:mod:`mitnerf.scenes.procedural`) plus ``extra_scenes``, once with a frozen random encoder
-(as NeRF2D) and once with a trained one. **bunny** and **tu** are never trained on: for
-every ``k`` in ``ks`` and every draw (``draws``: the ``k`` views nearest an even spread,
-starting from a different camera each draw) pixelNeRF reads those ``k`` views, and a
-NeRF (the ``vanilla-2d`` recipe, ``nerf_iters`` steps, seed = draw) trains on exactly
-them; both are scored on the same evenly spaced, noise-free test views. pixelNeRF is
-also scored on held-out views of ``n_seen`` training outlines and on ``n_unseen`` new ones.
-
-Writes ``results.csv``, ``training.csv``, ``psnr_vs_views.png`` (mean and spread over
-draws), ``strips_<scene>.png``, ``density_<scene>.png`` and ``report.md``.
+pixelNeRF (the ``pixelnerf-2d`` recipe) trains on procedural outlines plus ``extra_scenes``, once
+per encoder. On ``eval_scenes`` (never trained on), for every ``k`` and draw, pixelNeRF reads ``k``
+views and a ``vanilla-2d`` NeRF trains on exactly them; both are scored on the same noise-free test
+views. Writes ``results.csv``, ``training.csv``, ``psnr_vs_views.png``, ``strips_<scene>.png``,
+``density_<scene>.png``, ``training.png`` and ``report.md``.
 """
 
 from __future__ import annotations
@@ -108,23 +97,6 @@ def outline(cfg: Config, i: int):
     return make_dataset(outline_scene(s), rig(cfg.train_views, cfg.outline_test_views, s), progress=False)
 
 
-def score(pred: dict, ds) -> dict:
-    s = ds["test"]
-    target = s.target(ds.background)
-    return {"psnr": psnr(pred["rgb"], target), "ssim": ssim(pred["rgb"], target),
-            "depth_error": depth_error(pred["depth"], pred["opacity"], s.depth, s.mask), "status": "ok"}
-
-
-def render_test(trainer: PixelTrainer, ds, views) -> tuple[dict, object]:
-    """Test views of ``ds`` rendered from its training views ``views``, and the context."""
-    ctx = scene_views(ds).context(trainer.field, views)
-    o, d = ds["test"].cameras.rays()
-    out = trainer.render(ctx, o.reshape(-1, 2), d.reshape(-1, 2), ds.near, ds.far)
-    shape = o.shape[:-1]
-    return {"rgb": out["rgb"].reshape(*shape, 3), "depth": out["depth"].reshape(shape),
-            "opacity": out["opacity"].reshape(shape)}, ctx
-
-
 def picks(ds, k: int, draw: int, draws: int) -> np.ndarray:
     """The ``k`` input views of draw ``draw`` (each draw starts the even spread at another camera)."""
     return pick_views(ds["train"].cameras, k, start=draw * len(ds["train"]) // max(draws, 1))
@@ -132,13 +104,12 @@ def picks(ds, k: int, draw: int, draws: int) -> np.ndarray:
 
 def run(cfg: Config, out: Path) -> list[dict]:
     outlines = [outline(cfg, i) for i in range(cfg.n_outlines)]
-    extra = [make_dataset(get_scene(n), rig(cfg.train_views, 0, 77 + j), progress=False)
-             for j, n in enumerate(cfg.extra_scenes)]
     unseen = [outline(cfg, 500 + i) for i in range(cfg.n_unseen)]
     evals = {n: cached_dataset(n, dataclasses.replace(rig(cfg.eval_train_views, cfg.eval_test_views, 100 + cfg.seed),
                                                       n_val=2)) for n in cfg.eval_scenes}
     train_sets = [scene_views(ds, name=f"outline{i}") for i, ds in enumerate(outlines)]
-    train_sets += [scene_views(ds, name=n) for ds, n in zip(extra, cfg.extra_scenes)]
+    train_sets += [scene_views(make_dataset(get_scene(n), rig(cfg.train_views, 0, 77 + j), progress=False), name=n)
+                   for j, n in enumerate(cfg.extra_scenes)]
     recipe = get_recipe("pixelnerf-2d").override(iters=cfg.pixel_iters, time_budget=cfg.pixel_budget, seed=cfg.seed)
     rows, history, renders, densities, trainers = [], [], {}, {}, {}
     for enc in cfg.encoders:
@@ -151,11 +122,17 @@ def run(cfg: Config, out: Path) -> list[dict]:
                                                                enumerate(outlines[:cfg.n_seen])]
         jobs += [(f"unseen{i}", ds, "unseen outline") for i, ds in enumerate(unseen)]
         for name, ds, group in jobs:
+            test = ds["test"]
+            target, (o, d) = test.target(ds.background), test.cameras.rays()
             for k in cfg.ks:
                 for draw in range(cfg.draws if group == "eval" else 1):
-                    pred, ctx = render_test(t, ds, picks(ds, k, draw, cfg.draws))
+                    ctx = scene_views(ds).context(t.field, picks(ds, k, draw, cfg.draws))
+                    pred = {key: v.reshape(*o.shape[:-1], *v.shape[1:]) for key, v in
+                            t.render(ctx, o.reshape(-1, 2), d.reshape(-1, 2), ds.near, ds.far).items()}
                     rows.append({"method": method, "scene": name, "group": group, "k": k, "draw": draw,
-                                 **score(pred, ds), "train_time": t.state.train_time, "steps": t.state.step})
+                                 "psnr": psnr(pred["rgb"], target), "ssim": ssim(pred["rgb"], target),
+                                 "depth_error": depth_error(pred["depth"], pred["opacity"], test.depth, test.mask),
+                                 "status": "ok", "train_time": t.state.train_time, "steps": t.state.step})
                     if group == "eval" and draw == 0:
                         renders[(name, k, method)] = pred["rgb"]
                         densities[(name, k, method)] = t.density(ctx)
@@ -164,8 +141,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
             for draw in range(cfg.draws):
                 nerf = get_recipe("vanilla-2d").override(iters=cfg.nerf_iters, time_budget=cfg.nerf_time_budget,
                                                         batch_rays=cfg.nerf_batch_rays, val_every=0, seed=draw)
-                row, r, rec = train_row(ds.sparse(picks(ds, k, draw, cfg.draws)), nerf, {"method": "NeRF", "scene": name,
-                                                                             "group": "eval", "k": k, "draw": draw})
+                labels = {"method": "NeRF", "scene": name, "group": "eval", "k": k, "draw": draw}
+                row, r, rec = train_row(ds.sparse(picks(ds, k, draw, cfg.draws)), nerf, labels)
                 rows.append(row)
                 if draw == 0:
                     renders[(name, k, "NeRF")], densities[(name, k, "NeRF")] = rec.renders["rgb"], r.backend.density
@@ -173,12 +150,11 @@ def run(cfg: Config, out: Path) -> list[dict]:
     write_csv(out / "training.csv", history)
     methods = [f"pixelNeRF ({e})" for e in cfg.encoders] + ["NeRF"]
     summary = summarise(rows, ["group", "scene", "method", "k"], ("psnr", "ssim"))
-    _figures(cfg, summary, history, renders, densities, evals, methods, out)
-    _report(cfg, summary, trainers, methods, out)
+    _figures_and_report(cfg, summary, history, renders, densities, evals, trainers, methods, out)
     return rows
 
 
-def _figures(cfg, summary, history, renders, densities, evals, methods, out) -> None:
+def _figures_and_report(cfg, summary, history, renders, densities, evals, trainers, methods, out) -> None:
     plt = pyplot()
     panels = list(cfg.eval_scenes) + ["seen outline", "unseen outline"]
     fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4), squeeze=False)
@@ -221,8 +197,7 @@ def _figures(cfg, summary, history, renders, densities, evals, methods, out) -> 
         save(fig, out / f"density_{name}.png", dpi=90)
     fig, ax = plt.subplots(figsize=(5.5, 3.4))
     for enc in dict.fromkeys(r["encoder"] for r in history):
-        t = np.array([r["time"] for r in history if r["encoder"] == enc], float)
-        loss = np.array([r["loss"] for r in history if r["encoder"] == enc], float)
+        t, loss = np.array([(r["time"], r["loss"]) for r in history if r["encoder"] == enc], float).T
         w = min(10, len(loss))
         if w:
             ax.semilogy(t[w - 1:], np.convolve(loss, np.ones(w) / w, mode="valid"), label=f"{enc} encoder")
@@ -230,9 +205,6 @@ def _figures(cfg, summary, history, renders, densities, evals, methods, out) -> 
     ax.grid(alpha=0.3)
     ax.legend()
     save(fig, out / "training.png")
-
-
-def _report(cfg, summary, trainers, methods, out) -> None:
     ev = {(s["scene"], s["method"], s["k"]): s for s in summary if s["group"] == "eval"}
     table = [{"scene": n, "method": m, **{f"k={k}": mean_std(ev[(n, m, k)], "psnr") for k in cfg.ks}}
              for n in cfg.eval_scenes for m in methods]
@@ -255,8 +227,9 @@ def _report(cfg, summary, trainers, methods, out) -> None:
            for m in methods[:-1] for g in ("seen outline", "unseen outline")]
     steps = "; ".join(f"{e}: {t.state.step} steps in {t.state.train_time:.0f} s" for e, t in trainers.items())
     write_report(out, "pixelNeRF in 2D against NeRF with few views", [
-        ("Set-up", f"pixelNeRF trained on {cfg.n_outlines} procedural outlines and {', '.join(cfg.extra_scenes) or 'no'} "
-                   f"named scenes ({cfg.train_views} noisy views each; recipe `pixelnerf-2d`: {steps}). Scored on "
+        ("Set-up", f"pixelNeRF trained on {cfg.n_outlines} procedural outlines and "
+                   f"{', '.join(cfg.extra_scenes) or 'no'} named scenes ({cfg.train_views} noisy views each; recipe "
+                   f"`pixelnerf-2d`: {steps}). Scored on "
                    f"{', '.join(cfg.eval_scenes)} (never trained on): the k of {cfg.eval_train_views} views nearest "
                    f"an even spread, {cfg.draws} draw(s) per k, {cfg.eval_test_views} test views. NeRF: recipe "
                    f"`vanilla-2d`, {cfg.nerf_iters} steps or {cfg.nerf_time_budget:g} s of {cfg.nerf_batch_rays} rays "

@@ -1,11 +1,5 @@
-"""Plumbing every experiment shares: one run -> one row, rows -> CSV, tables over seeds, the report.
-
-Every experiment module has a ``Config`` dataclass, ``quick(seed)`` (a small version that
-runs in about a minute) and ``run(cfg, out) -> list[dict]`` (rows; it also writes CSV,
-figures and ``report.md`` into ``out``). A row is a :class:`~mitnerf.train.evaluate.RunRecord`
-row plus the experiment's labels; :func:`summarise` turns the rows of several seeds into
-mean and spread.
-"""
+"""Plumbing every experiment shares: one run -> one row (a ``RunRecord`` row plus the experiment's
+labels), rows -> CSV, mean and spread over seeds, markdown tables, ``report.md``."""
 
 from __future__ import annotations
 
@@ -51,8 +45,7 @@ def num(v) -> float:
 
 
 def summarise(rows: list[dict], by: list[str], metrics=("psnr", "ssim")) -> list[dict]:
-    """Rows grouped by the ``by`` columns: the count, failures, and mean / std / min / max of each
-    metric over the runs that are ``ok`` (seeds)."""
+    """Rows grouped by the ``by`` columns: count, failures, mean / std / min / max of each metric over the ok runs."""
     groups: dict[tuple, list] = {}
     for r in rows:
         groups.setdefault(tuple(r[k] for k in by), []).append(r)
@@ -63,17 +56,15 @@ def summarise(rows: list[dict], by: list[str], metrics=("psnr", "ssim")) -> list
         for m in metrics:
             vals = np.array([num(r.get(m)) for r in ok])
             vals = vals[np.isfinite(vals)]
-            row[m] = float(vals.mean()) if vals.size else math.nan
-            row[f"{m}_std"] = float(vals.std()) if vals.size > 1 else 0.0 if vals.size else math.nan
-            row[f"{m}_min"], row[f"{m}_max"] = (float(vals.min()), float(vals.max())) if vals.size else (math.nan,) * 2
+            stats = (vals.mean(), vals.std(), vals.min(), vals.max()) if vals.size else (math.nan,) * 4
+            row.update({m + k: float(v) for k, v in zip(("", "_std", "_min", "_max"), stats)})
         out.append(row)
     return out
 
 
 def fmt_value(v, spec: str = ".2f") -> str:
     f = num(v)
-    return str(v) if not math.isfinite(f) and not isinstance(v, float) else "-" if not math.isfinite(f) \
-        else format(f, spec)
+    return format(f, spec) if math.isfinite(f) else "-" if isinstance(v, float) else str(v)
 
 
 def markdown_table(rows: list[dict], columns: list[str] | None = None, fmt: dict | None = None,
@@ -98,7 +89,6 @@ def mean_std(row: dict, metric: str, spec: str = ".2f") -> str:
 
 
 def write_report(out: Path, title: str, sections: list[tuple[str, str]]) -> Path:
-    """``report.md``: a title, then (heading, markdown body) sections; figures are embedded by the
-    bodies as ``![caption](file.png)`` relative to ``out``."""
+    """``report.md``: a title, then (heading, markdown body) sections; bodies embed figures relative to ``out``."""
     text = [f"# {title}\n"] + [f"## {heading}\n\n{body.strip()}\n" for heading, body in sections]
     return atomic_write_text(out / "report.md", "\n".join(text))

@@ -1,16 +1,9 @@
 """``REPRODUCTION.md``: every claim of the two source reports beside our figure.
 
-``mitnerf experiment all --out DIR`` runs the experiments of :data:`REPRODUCE` at full size
-(each into ``DIR/<name>``), records each one's rows in the results file
-(:func:`record`, key ``experiment/<name>``, with the command, the budget and the machine)
-and writes ``DIR/REPRODUCTION.md``; ``python benchmarks/report.py`` writes the same document
-at the top of the source tree from the results file, so a figure lives in one place.
-
-The document: per report, a table of its claims (:mod:`.claims`): the passage quoted, where
-it stands in the report, their figure, ours, whether it holds (and the measured cause where
-it does not), the command, budget and machine, and the deviations; then the
-window-shopping report's Table 2 row for row beside ours, our additional rows, and one
-figure (``reproduction.png``) drawn from the same rows.
+``mitnerf experiment all --out DIR`` runs the experiments of :data:`REPRODUCE` at full size (each
+into ``DIR/<name>``), records their rows in the results file (key ``experiment/<name>``) and writes
+``DIR/REPRODUCTION.md`` and ``DIR/reproduction.png``; ``benchmarks/report.py`` writes the same from
+the results file.
 """
 
 from __future__ import annotations
@@ -30,54 +23,39 @@ REPRODUCE = ("pe", "depth", "pixelnerf", "window-shop")
 """The experiments that test the reports' claims (``mitnerf experiment all``)."""
 
 KEEP = ("psnr", "ssim", "iou", "depth_error", "chamfer", "train_time", "steps", "status", "reason")
-
-
-def slim(row: dict) -> dict:
-    """A row's labels and metrics (no paths, no long texts), for the results file."""
-    return {k: v for k, v in row.items() if (k in KEEP or not isinstance(v, float)) and k not in ("recipe", "params",
-                                                                                                  "render_time")}
-
-
-def budget(name: str, cfg) -> str:
-    """The experiment's budget in words, from its config."""
-    c = dataclasses.asdict(cfg)
-    if name == "pe":
-        return f"{c['steps']} steps per run, {len(c['Ls'])} L x {c['seeds']} seeds"
-    if name == "depth":
-        return f"{c['steps']} steps of {c['batch_rays']} rays, {len(c['scenes'])} scenes x {len(c['views'])} view counts x 2 x {c['seeds']} seeds"
-    if name == "pixelnerf":
-        return (f"pixelNeRF per encoder: the recipe's budget; NeRF: {c['nerf_iters']} steps or {c['nerf_time_budget']:g} s,"
-                f" {c['draws']} draws per k")
-    if name == "window-shop":
-        return (f"{c['iters']} steps or {c['time_budget']:g} s per row of {c['batch_rays']} rays, {c['architecture']} MLP, "
-                f"{len(c['objects'])} objects")
-    return ""
+BUDGETS = {
+    "pe": lambda c: f"{c.steps} steps per run, {len(c.Ls)} L x {c.seeds} seeds",
+    "depth": lambda c: (f"{c.steps} steps of {c.batch_rays} rays, {len(c.scenes)} scenes x {len(c.views)} view counts "
+                        f"x 2 x {c.seeds} seeds"),
+    "pixelnerf": lambda c: (f"pixelNeRF per encoder: the recipe's budget; NeRF: {c.nerf_iters} steps or "
+                            f"{c.nerf_time_budget:g} s, {c.draws} draws per k"),
+    "window-shop": lambda c: (f"{c.iters} steps or {c.time_budget:g} s per row of {c.batch_rays} rays, "
+                              f"{c.architecture} MLP, {len(c.objects)} objects"),
+}
+"""Per experiment: its config -> its budget in words."""
 
 
 def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path: Path | None = None) -> dict:
-    """Store an experiment's rows, config and budget in the results file."""
+    """Store an experiment's rows (labels and the metrics in ``KEEP``), config and budget in the results file."""
     verdicts = [f"{c.key}: {c.judge(rows)[1].split(':')[0]}" for c in CLAIMS if c.experiment == name and rows]
-    return record_result(f"experiment/{name}", {"rows": [slim(r) for r in rows], "wall_s": round(seconds, 1)},
+    budget = BUDGETS[name](cfg) if name in BUDGETS else ""
+    slim = [{k: v for k, v in r.items() if (k in KEEP or not isinstance(v, float))
+             and k not in ("recipe", "params", "render_time")} for r in rows]
+    return record_result(f"experiment/{name}", {"rows": slim, "wall_s": round(seconds, 1)},
                          f"{len(rows)} runs in {seconds / 60:.0f} min; " + ("; ".join(verdicts) or "no claims"),
-                         command, path=path, budget=budget(name, cfg), config=dataclasses.asdict(cfg))
-
-
-def _judge(claim, results: dict) -> tuple[str, str]:
-    entry = results.get(f"experiment/{claim.experiment}")
-    if not entry or not entry["values"].get("rows"):
-        return "-", f"{MISSING} (`mitnerf experiment {claim.experiment}`)"
-    try:
-        return claim.judge(entry["values"]["rows"])
-    except (KeyError, ValueError, ZeroDivisionError) as e:
-        return "-", f"{MISSING}: the recorded rows lack {e}"
+                         command, path=path, budget=budget, config=dataclasses.asdict(cfg))
 
 
 def claims_table(results: dict, source: str) -> str:
     rows = []
-    for c in CLAIMS:
-        if c.source != source:
-            continue
-        ours, stands = _judge(c, results)
+    for c in [c for c in CLAIMS if c.source == source]:
+        entry = results.get(f"experiment/{c.experiment}")
+        ours, stands = "-", f"{MISSING} (`mitnerf experiment {c.experiment}`)"
+        if entry and entry["values"].get("rows"):
+            try:
+                ours, stands = c.judge(entry["values"]["rows"])
+            except (KeyError, ValueError, ZeroDivisionError) as e:
+                ours, stands = "-", f"{MISSING}: the recorded rows lack {e}"
         rows.append({"claim": f"\"{c.quote}\" ({c.where})", "theirs": c.theirs, "ours": ours, "stands": stands,
                      "run": f"`{c.experiment}`", "deviations, judged as": c.deviations})
     return markdown_table(rows)

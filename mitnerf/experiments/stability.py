@@ -1,26 +1,14 @@
 """Stability: how often does training fail from sparse views, and what prevents it?
 
-Every method trains from ``seeds`` seeds (weights, batches and jitter differ; the sparse,
-evenly spaced views stay the same) on one 2D scene. A run's status is the one of
-:func:`mitnerf.train.evaluate.classify` (``nan`` or ``collapsed``: empty or constant).
-
-Methods: the defaults (the vanilla NeRF, DS-NeRF, the dense grid: their recipes, short),
-and variants that switch one safeguard off to show the failure it prevents:
-
-* ``NeRF, ReLU + bias 0, no warm-up``: NeRF's original density activation and
-  initialisation without the warm-up: if the density outputs all go negative early,
-  ReLU's gradient is zero and the field stays empty ("dead" density).
-* ``NeRF, near plane at the camera``: samples start 5 cm in front of each camera, not at
-  the object's bounding circle: few views can then be explained by floaters in front
-  of their cameras, which test views see through.
-
-Writes ``stability.csv``, ``stability.png`` (test PSNR per run and method, failures
-marked; failure rates) and ``report.md``.
+Every method of ``METHODS`` trains ``seeds`` times on the same sparse, evenly spaced views of one 2D
+scene; a run fails as :func:`mitnerf.train.evaluate.classify` says. Two variants each switch one
+safeguard off: ReLU, a zero density bias and no warm-up (dead density); the near plane 5 cm in
+front of each camera (floaters). Writes ``stability.csv``, ``stability.png`` and ``report.md``.
 """
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -75,10 +63,7 @@ def run(cfg: Config, out: Path) -> list[dict]:
     rows = []
     for label in cfg.methods:
         name, args, near = METHODS[label]
-        data = ds
-        if near is not None:
-            data = copy.copy(ds)
-            data.near = near
+        data = ds if near is None else dataclasses.replace(ds, near=near)
         for k in range(cfg.seeds):
             recipe = get_recipe(name).override(**args, n_coarse=cfg.samples, iters=cfg.steps,
                                               val_every=max(cfg.steps // 3, 1), seed=cfg.seed + k)
@@ -87,27 +72,11 @@ def run(cfg: Config, out: Path) -> list[dict]:
     write_csv(out / "stability.csv", rows)
     summary = summarise(rows, ["method"], ("psnr",))
     for s in summary:
-        rs = [r for r in rows if r["method"] == s["method"] and r["status"] == "ok"]
-        p = np.array([r["psnr"] for r in rs])
+        p = np.array([r["psnr"] for r in rows if r["method"] == s["method"] and r["status"] == "ok"])
         s["failure_rate"] = s["failed"] / s["runs"]
         s["median"], s["p10"], s["p90"] = (np.median(p), *np.percentile(p, [10, 90])) if len(p) else (np.nan,) * 3
         s["failures"] = "; ".join(sorted({r["reason"].split(";")[0].split(" (")[0] for r in rows
                                           if r["method"] == s["method"] and r["status"] != "ok"})) or "-"
-    _figure(cfg, rows, summary, out / "stability.png")
-    table = markdown_table(summary, ["method", "runs", "failed", "failure_rate", "median", "p10", "p90", "failures"],
-                           fmt={"failure_rate": ".2f", "median": ".2f", "p10": ".2f", "p90": ".2f"})
-    write_report(out, f"Stability from {cfg.views} views of the {cfg.scene}", [
-        ("Setup", f"{cfg.seeds} seeds per method (initial weights, batches, jitter; the views are fixed), "
-                  f"{cfg.steps} steps, {cfg.samples} samples per ray, {cfg.views} evenly spaced training views, "
-                  "20 test views. Failed: NaN, or collapsed (empty or constant renders; "
-                  "`mitnerf.train.evaluate.classify`)."),
-        ("Results", table + "\n![PSNR per run and failure rates](stability.png)"),
-        ("Failure modes and what prevents them", _failure_text({s["method"]: s for s in summary})),
-    ])
-    return rows
-
-
-def _figure(cfg, rows, summary, path) -> None:
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), gridspec_kw={"width_ratios": [3, 1]})
     for i, label in enumerate(cfg.methods):
@@ -126,24 +95,31 @@ def _figure(cfg, rows, summary, path) -> None:
     axes[1].set_yticks(range(len(summary)), [s["method"] for s in summary], fontsize=6)
     axes[1].set(xlabel="failure rate", xlim=(0, 1))
     fig.suptitle(f"{cfg.scene}, {cfg.views} views, {cfg.seeds} seeds per method, {cfg.steps} steps")
-    save(fig, path)
-
-
-def _failure_text(by: dict) -> str:
+    save(fig, out / "stability.png")
+    by = {s["method"]: s for s in summary}
     lines = []
     base, relu = by.get("NeRF (defaults)"), by.get("NeRF, ReLU + bias 0, no warm-up")
     near = by.get("NeRF, near plane at the camera")
     if base and relu:
-        lines.append(f"- **Dead density.** With ReLU, a zero density bias and no warm-up, {relu['failed']}/{relu['runs']} "
-                     f"runs failed ({relu['failures']}); with the defaults (softplus density, which always has a "
-                     f"gradient; a -1 density bias; a 50-step warm-up) {base['failed']}/{base['runs']}.")
+        lines.append("- **Dead density.** With ReLU, a zero density bias and no warm-up, "
+                     f"{relu['failed']}/{relu['runs']} runs failed ({relu['failures']}); with the defaults (softplus "
+                     "density, which always has a gradient; a -1 density bias; a 50-step warm-up) "
+                     f"{base['failed']}/{base['runs']}.")
     if base and near:
         lines.append(f"- **Floaters in front of the cameras.** With the near plane 5 cm in front of the cameras the "
                      f"median test PSNR is {near['median']:.2f} dB against {base['median']:.2f} dB with the near plane "
                      "at the object's bounding circle (the datasets' default).")
-    for label in ("DS-NeRF (defaults)", "grid (defaults)"):
-        if label in by:
-            s = by[label]
-            lines.append(f"- **{label}**: {s['failed']}/{s['runs']} failed; median {s['median']:.2f} dB "
-                         f"(10-90 %: {s['p10']:.2f}-{s['p90']:.2f}).")
-    return "\n".join(lines)
+    for s in [by[label] for label in ("DS-NeRF (defaults)", "grid (defaults)") if label in by]:
+        lines.append(f"- **{s['method']}**: {s['failed']}/{s['runs']} failed; median {s['median']:.2f} dB "
+                     f"(10-90 %: {s['p10']:.2f}-{s['p90']:.2f}).")
+    table = markdown_table(summary, ["method", "runs", "failed", "failure_rate", "median", "p10", "p90", "failures"],
+                           fmt={"failure_rate": ".2f", "median": ".2f", "p10": ".2f", "p90": ".2f"})
+    write_report(out, f"Stability from {cfg.views} views of the {cfg.scene}", [
+        ("Setup", f"{cfg.seeds} seeds per method (initial weights, batches, jitter; the views are fixed), "
+                  f"{cfg.steps} steps, {cfg.samples} samples per ray, {cfg.views} evenly spaced training views, "
+                  "20 test views. Failed: NaN, or collapsed (empty or constant renders; "
+                  "`mitnerf.train.evaluate.classify`)."),
+        ("Results", table + "\n![PSNR per run and failure rates](stability.png)"),
+        ("Failure modes and what prevents them", "\n".join(lines)),
+    ])
+    return rows

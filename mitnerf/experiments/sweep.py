@@ -1,36 +1,29 @@
 """Speed against accuracy: which model is enough for a scene, and what it costs.
 
-``mitnerf sweep --out DIR`` (or ``benchmarks/pareto.py``) trains a grid of configurations
-and writes into ``DIR``:
-
-* ``sweep.csv``: one line per run (``COLUMNS``): scene, family, size, samples, backend,
-  budget, the :class:`~mitnerf.train.evaluate.RunRecord` figures, ``wall_time`` (the
-  clock around ``fit``: set-up, compilation, training), the host, and the run's recipe;
-* ``sweep.md``: per scene its Pareto front (the runs no faster run beats on test PSNR)
-  and its table, and whether some run reaches the torch reference's PSNR in 1/``SPEEDUP``
-  of its time; ``pareto.png``: PSNR against wall time, the front as a step line.
-
-The grid is ``scenes x families x SIZES x SAMPLES x backends x BUDGETS``, every run
-the family's recipe (:mod:`mitnerf.train.recipes`) with the size's settings; ``torch``
-runs the families with a twin at ``TORCH_SIZES``; one more row, the *reference*, is the
-``vanilla-2d`` recipe on torch for 600 s on the bunny. 2D scenes use 50 noisy views of
-100 px, 3D ones 25 of 100 x 100. Runs go to worker processes or a Dask cluster
-(:mod:`.pool`); each record is appended as it arrives, and running the same command
-again skips the rows already there (``retry_failed`` reruns the failed ones).
+``mitnerf sweep --out DIR`` trains the grid ``scenes x families x SIZES x SAMPLES x backends x
+BUDGETS`` (``torch`` runs the sizes in ``TORCH_SIZES``) plus the torch ``REFERENCE``, and writes into
+``DIR``: ``sweep.csv``, one line per run (``COLUMNS``; ``wall_time`` is the clock around ``fit``:
+set-up, compilation, training), appended as runs finish, so a rerun skips the rows already there;
+``sweep.md``, per scene its Pareto front, its table, and whether some run reaches the reference's
+PSNR in 1/``SPEEDUP`` of its time; ``pareto.png``, PSNR against wall time.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import io
 import json
 import math
+import multiprocessing as mp
 import os
 import socket
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable, Iterator
 
 import drjit as dr
 from tqdm.auto import tqdm
@@ -39,13 +32,12 @@ from .._io import digest
 from .._variant import set_variant
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig, noise_preset
-from ..errors import ConfigError
+from ..errors import ConfigError, EnvironmentProblem
 from ..scenes.objects3d import OBJECTS_3D
 from ..scenes.registry import SCENES_2D
 from ..train.fit import fit_and_evaluate
 from ..train.recipes import Recipe, recipe_for
 from ..viz.charts import plot_pareto
-from .pool import run_jobs
 from .report import markdown_table, num
 
 SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
@@ -188,15 +180,13 @@ def run_row(row: dict) -> dict:
 
 def append_result(path: Path, record: dict) -> None:
     """Append one record (header first for a new file); a torn last line is cut off first."""
-    if path.exists() and path.stat().st_size:
-        data = path.read_bytes()
-        if not data.endswith(b"\n"):
-            with open(path, "r+b") as f:
-                f.truncate(data.rfind(b"\n") + 1)
-    new = not path.exists() or path.stat().st_size == 0
+    data = path.read_bytes() if path.exists() else b""
+    if data and not data.endswith(b"\n"):
+        with open(path, "r+b") as f:
+            f.truncate(data.rfind(b"\n") + 1)
     with open(path, "a", newline="") as f:
         w = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
-        if new:
+        if b"\n" not in data:
             w.writeheader()
         w.writerow(record)
         f.flush()
@@ -209,14 +199,12 @@ def read_results(path: Path) -> list[dict]:
         return []
     text = path.read_text()
     text = text[:text.rfind("\n") + 1]
-    recs = []
+    recs = {}
     for r in csv.DictReader(io.StringIO(text, newline="")):
-        try:
+        with contextlib.suppress(ValueError):
             if isinstance(json.loads(r.get("config") or ""), dict) and r.get("status"):
-                recs.append(r)
-        except ValueError:
-            continue
-    return list({r["id"]: r for r in recs}.values())
+                recs[r["id"]] = r
+    return list(recs.values())
 
 
 def pareto_front(rows: list[dict], x: str = "wall_time", y: str = "psnr", min_gain: float = 0.01) -> list[dict]:
@@ -236,27 +224,81 @@ def is_reference(r: dict) -> bool:
 
 
 def reference_verdict(rows: list[dict]) -> str:
-    refs = [r for r in rows if is_reference(r) and r["status"] == "ok"]
-    if not refs:
+    ref = next((r for r in rows if is_reference(r) and r["status"] == "ok"), None)
+    if ref is None:
         return "No torch reference in this sweep.\n"
-    ref = refs[0]
-    others = [r for r in pareto_front([r for r in rows if r["scene"] == ref["scene"] and not is_reference(r)])]
+    others = pareto_front([r for r in rows if r["scene"] == ref["scene"] and not is_reference(r)])
     limit = num(ref["wall_time"]) / SPEEDUP
     reach = [r for r in others if num(r["psnr"]) >= num(ref["psnr"])]
     name = lambda r: f"{r['family']} {r['size']} s{r['samples']} {r['backend']} {r['budget']}"
-    text = (f"Torch reference ({name(ref)}, {ref['scene']}): {num(ref['psnr']):.2f} dB in {num(ref['wall_time']):.1f} s; "
-            f"the goal is that PSNR in at most {limit:.2f} s.\n\n")
+    text = (f"Torch reference ({name(ref)}, {ref['scene']}): {num(ref['psnr']):.2f} dB in "
+            f"{num(ref['wall_time']):.1f} s; the goal is that PSNR in at most {limit:.2f} s.\n\n")
     if reach:
         f = reach[0]
-        ok = num(f["wall_time"]) <= limit
+        verdict = "PASSED" if num(f["wall_time"]) <= limit else "NOT PASSED"
         text += (f"- fastest run reaching it: {name(f)}, {num(f['psnr']):.2f} dB in {num(f['wall_time']):.2f} s "
-                 f"({num(ref['wall_time']) / num(f['wall_time']):.0f}x faster): **{'PASSED' if ok else 'NOT PASSED'}**\n")
+                 f"({num(ref['wall_time']) / num(f['wall_time']):.0f}x faster): **{verdict}**\n")
     else:
         text += "- no run reaches it: **NOT PASSED**\n"
     return text
 
 
-def write_outputs(out: Path, rows: list[dict]) -> Path:
+def run_jobs(fn: Callable, jobs: list, cfg: Config) -> Iterator[dict]:
+    """``fn(job)`` of every job, yielded as they finish, in ``cfg.workers`` local processes or on the Dask
+    cluster at ``cfg.scheduler`` (``dask scheduler``; ``dask worker tcp://HOST:8786 --nthreads 1 --nworkers N``
+    where mitnerf is installed). ``fn`` must not raise; a worker that dies gives a failed record."""
+    failed = lambda row, exc: _record(row, status="failed", reason=f"worker died: {type(exc).__name__}: {exc}"[:500])
+    if cfg.executor == "local":
+        with ProcessPoolExecutor(max_workers=max(1, cfg.workers), mp_context=mp.get_context("spawn"),
+                                 initializer=prepare_worker, initargs=(cfg.threads,)) as pool:
+            futures = {pool.submit(fn, j): j for j in jobs}
+            try:
+                for fut in as_completed(futures):
+                    exc = fut.exception()
+                    yield failed(futures[fut], exc) if exc is not None else fut.result()
+            finally:
+                for fut in futures:       # interrupted: do not start what is still queued
+                    fut.cancel()
+        return
+    if cfg.executor != "dask":
+        raise ConfigError(f"unknown executor {cfg.executor!r}; choose local or dask")
+    if not cfg.scheduler:
+        raise ConfigError("the dask executor needs a scheduler; pass --scheduler tcp://HOST:8786")
+    try:
+        from distributed import Client, as_completed as dask_completed
+    except ImportError:
+        raise EnvironmentProblem("the dask executor needs dask.distributed: pip install -e .[dask]") from None
+    try:
+        client = Client(cfg.scheduler, timeout="20s")
+    except OSError as exc:
+        raise EnvironmentProblem(f"cannot reach the Dask scheduler at {cfg.scheduler} ({exc}); start one with "
+                                 "'dask scheduler' and pass its address, or use --executor local") from None
+    try:
+        futures = {client.submit(fn, j, key=f"mitnerf-{os.getpid()}-{i}", pure=False): j for i, j in enumerate(jobs)}
+        by_key = {f.key: j for f, j in futures.items()}
+        for fut in dask_completed(list(futures)):
+            try:
+                yield fut.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker
+                yield failed(by_key[fut.key], exc)
+    finally:
+        client.close()
+
+
+def run(cfg: Config, out: Path, progress: bool = True) -> list[dict]:
+    """Run the rows not yet in ``out/sweep.csv``, then write ``sweep.md`` and ``pareto.png``."""
+    csv_path = out / "sweep.csv"
+    rows = build_rows(cfg)
+    done = {r["id"] for r in read_results(csv_path) if not (cfg.retry_failed and r["status"] != "ok")}
+    todo = [r for r in rows if r["id"] not in done]
+    for key in sorted({json.dumps([r["scene"], r["rig"]], sort_keys=True) for r in todo}):
+        scene, rig = json.loads(key)
+        cached_dataset(scene, RigConfig(**rig))          # rendered here once; workers only read the cache
+    with tqdm(total=len(todo), desc="sweep", unit="run", disable=not progress) as bar:
+        for rec in run_jobs(run_row, todo, cfg):
+            append_result(csv_path, rec)
+            bar.update(1)
+    rows = read_results(csv_path)
     plot_pareto(rows, out / "pareto.png", pareto_front, is_reference)
     text = ["# Speed against accuracy\n", "![test PSNR against wall time](pareto.png)\n", "## Torch reference\n",
             reference_verdict(rows)]
@@ -272,24 +314,4 @@ def write_outputs(out: Path, rows: list[dict]) -> Path:
         text += ["## Failed runs\n", markdown_table(failed, ["scene", "family", "size", "backend", "budget", "status",
                                                              "reason"])]
     (out / "sweep.md").write_text("\n".join(text))
-    return out / "sweep.md"
-
-
-def run(cfg: Config, out: Path, progress: bool = True) -> list[dict]:
-    """Run the rows not yet in ``out/sweep.csv``, then write the report and the chart."""
-    csv_path = out / "sweep.csv"
-    rows = build_rows(cfg)
-    done = {r["id"] for r in read_results(csv_path) if not (cfg.retry_failed and r["status"] != "ok")}
-    todo = [r for r in rows if r["id"] not in done]
-    for key in sorted({json.dumps([r["scene"], r["rig"]], sort_keys=True) for r in todo}):
-        scene, rig = json.loads(key)
-        cached_dataset(scene, RigConfig(**rig))          # rendered here once; workers only read the cache
-    failed = lambda row, exc: _record(row, status="failed", reason=f"worker died: {type(exc).__name__}: {exc}"[:500])
-    with tqdm(total=len(todo), desc="sweep", unit="run", disable=not progress) as bar:
-        for rec in run_jobs(run_row, todo, cfg.executor, cfg.workers, cfg.scheduler, prepare_worker, (cfg.threads,),
-                            failed):
-            append_result(csv_path, rec)
-            bar.update(1)
-    results = read_results(csv_path)
-    write_outputs(out, results)
-    return results
+    return rows

@@ -1,26 +1,9 @@
-"""Window shopping: the report's ten NeRF combinations, row for row, then our additions.
+"""Window shopping: the ten NeRF combinations of Wu's report, row for row, then our additions.
 
-**The report** (Wu, "Online Window Shopping with NeRF") trains a NeRF on the tiny-NeRF
-Lego (100 x 100 photos) for 2000 iterations in ten combinations of (training images, L,
-N_c, view dependence) (its Table 1) and reports their PSNR (its Table 2), quoted in
-``COMBINATIONS``.
-
-**Ours.** Every combination, as a row, on each object of ``objects`` at ``resolution``
-pixels: a pool of ``pool_views`` random, slightly noisy photos on the upper hemisphere
-(a run with N images trains on the first N, so 5 images are a subset of 10, of 25 ...),
-tested on ``test_views`` noise-free views of the 360 degree orbit at 25 degrees. The NeRF
-is the ``vanilla-3d`` recipe with the combination's L, N_c and view dependence and no
-fine pass (the report's table varies N_c only); ``architecture='paper'`` uses NeRF's
-8 x 256 MLP with the skip at layer 4 instead of ours (4 x 64), both declared in the
-report. Every row gets the same wall-clock budget (``time_budget``) and at most
-``iters`` steps (the report's 2000), so rows that can afford it take the same steps.
-
-**Additions** (a separate table): combination 9 at twice the steps and budget (is 2000
-enough?), combination 6 with view dependence on (what does it buy?), combination 7 with
-NeRF's four direction frequencies, the fine pass of
-64 samples on (hierarchical sampling, which the report leaves out), the dense-grid and
-hash-grid recipes, and more photos than the report had. Writes ``results.csv``, ``report.md`` (both tables
-beside the report's figures), ``psnr_vs_views.png`` and ``thumbnails.png``.
+Every combination of ``COMBINATIONS`` runs on each of ``objects``: N images are the first N photos
+of one pool; the NeRF is the ``vanilla-3d`` recipe with the combination's settings and no fine
+pass, every row with the same time budget and at most ``iters`` steps. Writes ``results.csv``,
+``report.md``, ``psnr_vs_views.png`` and ``thumbnails.png``.
 """
 
 from __future__ import annotations
@@ -44,10 +27,7 @@ COMBINATIONS = {
 }
 """The report's Table 1 (combinations, all at 2000 iterations) with its Table 2 (PSNR)."""
 ARCHITECTURES = {"ours": dict(width=64, depth=4, skip=2, dir_L=1), "paper": dict(width=256, depth=8, skip=4, dir_L=4)}
-"""``ours``: the ``vanilla-3d`` recipe's MLP with one direction frequency; ``paper``: NeRF's
-8 x 256 (skip into layer 4) with four direction frequencies, the report's. With 5 photos,
-four direction frequencies let the colour explain each photo by its direction (the
-addition "7, four direction frequencies" measures what that costs)."""
+"""``ours``: the ``vanilla-3d`` recipe's MLP with one direction frequency; ``paper``: NeRF's (the report's)."""
 
 
 @dataclass
@@ -75,8 +55,7 @@ class Config:
     additions: bool = True
     """Also run our additions table."""
     addition_views: tuple = (5, 200)
-    """Photo counts of the grid and hash-grid rows (the fine pass runs at 5 and 25, beside
-    combinations 9 and 5)."""
+    """Photo counts of the grid and hash-grid rows (the fine pass runs at 5 and 25)."""
     seed: int = 0
     """Seed of the photos' placement and of every training."""
 
@@ -86,37 +65,34 @@ def quick(seed: int = 0) -> Config:
                   iters=40, time_budget=6.0, addition_views=(5,), seed=seed)
 
 
+def _recipe(name: str, cfg: Config, steps: int = 1, **settings):
+    """Recipe ``name`` with ``settings``, ``steps`` times the row's time budget, no validation."""
+    return get_recipe(name).override(**settings, time_budget=steps * cfg.time_budget, val_every=0, seed=cfg.seed,
+                                     background=(1.0, 1.0, 1.0))
+
+
 def nerf_recipe(cfg: Config, L: int, n_coarse: int, vd: bool, n_fine: int = 0, steps: int = 1, **arch):
-    """The report's NeRF at (L, N_c, view dependence); ``steps`` times the steps and the budget;
-    ``arch`` replaces settings of the architecture."""
-    r = get_recipe("vanilla-3d").override(**{**ARCHITECTURES[cfg.architecture], **arch}, pos_L=L, n_coarse=n_coarse,
-                                         view_dependent=vd, iters=steps * cfg.iters, batch_rays=cfg.batch_rays,
-                                         time_budget=steps * cfg.time_budget,
-                                         val_every=0, seed=cfg.seed, background=(1.0, 1.0, 1.0))
-    r.model.render.n_fine = n_fine
-    return r
-
-
-def photos(obj: str, cfg: Config):
-    rig = RigConfig(dim=3, n_train=cfg.pool_views, n_val=2, n_test=cfg.test_views, resolution=cfg.resolution,
-                    seed=cfg.seed, **noise_preset(1.0))
-    return cached_dataset(obj, rig)
+    """The report's NeRF at (L, N_c, view dependence); ``steps`` times the steps and budget; ``arch``: MLP settings."""
+    return _recipe("vanilla-3d", cfg, steps, **{**ARCHITECTURES[cfg.architecture], **arch}, pos_L=L,
+                   n_coarse=n_coarse, n_fine=n_fine, view_dependent=vd, iters=steps * cfg.iters,
+                   batch_rays=cfg.batch_rays)
 
 
 def run(cfg: Config, out: Path) -> list[dict]:
     rows, thumbs = [], {}
     for obj in cfg.objects:
-        ds = photos(obj, cfg)
-        jobs = [(f"{i}", "report", COMBINATIONS[i][0], nerf_recipe(cfg, *COMBINATIONS[i][1:4])) for i in cfg.combinations]
+        ds = cached_dataset(obj, RigConfig(dim=3, n_train=cfg.pool_views, n_val=2, n_test=cfg.test_views,
+                                           resolution=cfg.resolution, seed=cfg.seed, **noise_preset(1.0)))
+        jobs = [(f"{i}", "report", COMBINATIONS[i][0], nerf_recipe(cfg, *COMBINATIONS[i][1:4]))
+                for i in cfg.combinations]
         if cfg.additions:
             jobs += [("9, twice the steps", "additions", 5, nerf_recipe(cfg, 10, 64, True, steps=2)),
                      ("6, view dependence on", "additions", 10, nerf_recipe(cfg, 6, 64, True)),
                      ("7, four direction frequencies", "additions", 5, nerf_recipe(cfg, 6, 64, True, dir_L=4))]
             jobs += [(f"fine pass, {v} images", "additions", v, nerf_recipe(cfg, 10, 64, True, n_fine=64))
                      for v in (5, 25) if v <= cfg.pool_views]
-            for v in cfg.addition_views:
-                jobs += [(f"grid-3d recipe, {v} images", "additions", v, _budget(get_recipe("grid-3d"), cfg)),
-                         (f"hashgrid-3d recipe, {v} images", "additions", v, _budget(get_recipe("hashgrid-3d"), cfg))]
+            jobs += [(f"{name} recipe, {v} images", "additions", v, _recipe(name, cfg))
+                     for v in cfg.addition_views for name in ("grid-3d", "hashgrid-3d")]
         for label, table, views, recipe in jobs:
             data = ds.sparse(slice(0, views))
             row, _, rec = train_row(data, recipe, {"object": obj, "table": table, "row": label, "images": views})
@@ -127,17 +103,11 @@ def run(cfg: Config, out: Path) -> list[dict]:
             if rec.renders is not None:
                 thumbs[(obj, label)] = rec.renders["rgb"][0]
     write_csv(out / "results.csv", rows)
-    _figures(cfg, rows, thumbs, out)
-    _report(cfg, rows, out)
+    _figures_and_report(cfg, rows, thumbs, out)
     return rows
 
 
-def _budget(recipe, cfg: Config):
-    r = recipe.override(time_budget=cfg.time_budget, val_every=0, seed=cfg.seed, background=(1.0, 1.0, 1.0))
-    return r
-
-
-def _figures(cfg: Config, rows: list[dict], thumbs: dict, out: Path) -> None:
+def _figures_and_report(cfg: Config, rows: list[dict], thumbs: dict, out: Path) -> None:
     plt = pyplot()
     fig, axes = plt.subplots(1, len(cfg.objects), figsize=(5.2 * len(cfg.objects), 3.8), squeeze=False)
     for ax, obj in zip(axes[0], cfg.objects):
@@ -166,9 +136,6 @@ def _figures(cfg: Config, rows: list[dict], thumbs: dict, out: Path) -> None:
             for a in axs[i]:
                 a.axis("off")
         save(fig, out / "thumbnails.png")
-
-
-def _report(cfg: Config, rows: list[dict], out: Path) -> None:
     rep = [r for r in rows if r["table"] == "report"]
     table = [{"#": r["row"], "object": r["object"], "images": r["images"], "L": r["L"], "N_c": r["N_c"],
               "view dep.": "on" if r["view_dependence"] else "off", "report PSNR": r["report_psnr"],
@@ -180,12 +147,13 @@ def _report(cfg: Config, rows: list[dict], out: Path) -> None:
     arch = ARCHITECTURES[cfg.architecture]
     fmt = {"our PSNR": ".2f", "SSIM": ".3f", "train s": ".0f", "PSNR": ".2f", "Chamfer": ".4f"}
     write_report(out, "Window shopping: the report's table, row for row", [
-        ("Set-up", f"Objects {', '.join(cfg.objects)}, {cfg.resolution} x {cfg.resolution} photos (random, noisy, upper "
-                   f"hemisphere; N images = the first N of one pool), {cfg.test_views} test views on the 360 degree "
-                   f"orbit. NeRF: recipe `vanilla-3d` with the {cfg.architecture} MLP ({arch['depth']} x "
-                   f"{arch['width']}, skip into layer {arch['skip']}, {arch['dir_L']} direction frequencies), no fine pass; "
-                   f"every row at most {cfg.iters} steps of {cfg.batch_rays} rays and {cfg.time_budget:g} s. Deviations from the report: our objects (not the tiny-NeRF "
-                   "Lego), CPU (2 cores) instead of a GPU, a time cap per row."),
+        ("Set-up", f"Objects {', '.join(cfg.objects)}, {cfg.resolution} x {cfg.resolution} photos (random, noisy, "
+                   f"upper hemisphere; N images = the first N of one pool), {cfg.test_views} test views on the 360 "
+                   f"degree orbit. NeRF: recipe `vanilla-3d` with the {cfg.architecture} MLP ({arch['depth']} x "
+                   f"{arch['width']}, skip into layer {arch['skip']}, {arch['dir_L']} direction frequencies), no fine "
+                   f"pass; every row at most {cfg.iters} steps of {cfg.batch_rays} rays and {cfg.time_budget:g} s. "
+                   "Deviations from the report: our objects (not the tiny-NeRF Lego), CPU (2 cores) instead of a GPU, "
+                   "a time cap per row."),
         ("The report's combinations", markdown_table(table, fmt=fmt)),
         ("Our additions", markdown_table(add, fmt=fmt) + "\n![PSNR against images](psnr_vs_views.png)\n\n"
                                                          "![first test view of every row](thumbnails.png)"),
