@@ -1,9 +1,6 @@
-"""Datasets rendered once and reused: ``cached_dataset(scene, rig)`` under ``$MITNERF_CACHE``.
-
-The entry's name is a hash of the scene, the rig and the render settings; it is filled
-atomically (:func:`mitnerf._io.cache_entry`), so processes that ask for the same dataset
-at once render it privately and the first to finish provides it to all.
-"""
+"""Datasets rendered once and reused under ``$MITNERF_CACHE``, named by a hash of the scene, rig and render
+settings, filled atomically (:func:`mitnerf._io.cache_entry`): concurrent requests render privately and the
+first to finish provides it to all."""
 
 from __future__ import annotations
 

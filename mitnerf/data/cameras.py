@@ -2,10 +2,9 @@
 
 Conventions (the same as the file formats, so rays never need converting):
 
-* **2D (NeRF2D)**: a pose is a 3x3 camera-to-world matrix in homogeneous 2D
-  coordinates. Column 0 is the viewing direction, column 1 the camera's "up" (towards
-  pixel row 0), column 2 the position. Pixel row ``i`` of an ``H``-pixel view looks
-  along ``normalize([f, H/2 - (i + 0.5)])`` in camera space.
+* **2D (NeRF2D)**: a pose is a 3x3 camera-to-world matrix in homogeneous 2D coordinates: column 0 is the
+  viewing direction, column 1 the camera's "up" (towards pixel row 0), column 2 the position. Pixel row ``i``
+  of an ``H``-pixel view looks along ``normalize([f, H/2 - (i + 0.5)])`` in camera space.
 * **3D (Blender / nerfstudio / OpenGL)**: a pose is a 4x4 camera-to-world matrix;
   the camera looks down -z with +y up and +x right. Pixel ``(row v, column u)`` looks
   along ``normalize([(u + 0.5 - W/2) / f, -(v + 0.5 - H/2) / f, -1])``.
@@ -25,19 +24,6 @@ from ..errors import ConfigError, MitnerfError
 
 PIXEL_BYTES = 32
 """The least memory a pixel of a set of views costs once rendered (colour, alpha, depth, mask)."""
-
-
-def _check_pixels(n: int, H: int, W: int) -> None:
-    """Refuse up front views whose pixels cannot fit in memory (``--views`` x ``--resolution``
-    of a dataset, ``--frames`` x ``--resolution`` of a video), with the estimate."""
-    need = n * H * W * PIXEL_BYTES
-    if need < 1 << 30:
-        return
-    avail = available_memory()
-    if avail is not None and need > avail:
-        raise ConfigError(f"{n:,} views of {W} x {H} pixels ({n * H * W:,} pixels) need at least {need / 2**30:.1f} "
-                          f"GiB; this machine has {avail / 2**30:.1f} GiB available: use fewer views (or frames) "
-                          "or a lower resolution")
 
 
 @dataclass
@@ -66,7 +52,14 @@ class Cameras:
             raise MitnerfError(f"resolution must be at least 1 pixel, got {self.height}x{self.width}")
         if self.dim == 2 and self.width != 1:
             raise MitnerfError("2D cameras see 1D images: width must be 1")
-        _check_pixels(len(self.poses), self.height, self.width)
+        # refuse up front views whose pixels cannot fit in memory (--views or --frames x --resolution)
+        n, H, W = len(self.poses), self.height, self.width
+        need = n * H * W * PIXEL_BYTES
+        avail = available_memory() if need >= 1 << 30 else None
+        if avail is not None and need > avail:
+            raise ConfigError(f"{n:,} views of {W} x {H} pixels ({n * H * W:,} pixels) need at least "
+                              f"{need / 2**30:.1f} GiB; this machine has {avail / 2**30:.1f} GiB available: use fewer "
+                              "views (or frames) or a lower resolution")
 
     @property
     def dim(self) -> int:
@@ -89,16 +82,17 @@ class Cameras:
     def subset(self, index) -> "Cameras":
         return Cameras(self.poses[index], self.focal, self.height, self.width)
 
-    def camera_directions(self) -> np.ndarray:
-        """Unit pixel-centre directions in camera space, ``[H, W, dim]``."""
+    def _raw_directions(self) -> np.ndarray:
+        """Pixel-centre directions in camera space, not normalised, ``[H, W, dim]``."""
         f, H, W = self.focal, self.height, self.width
         if self.dim == 2:
-            d = np.stack([np.full(H, f), H / 2 - (np.arange(H) + 0.5)], -1)[:, None, :]
-        else:
-            u = (np.arange(W) + 0.5 - W / 2) / f
-            v = -(np.arange(H) + 0.5 - H / 2) / f
-            U, V = np.meshgrid(u, v)
-            d = np.stack([U, V, -np.ones_like(U)], -1)
+            return np.stack([np.full(H, f), H / 2 - (np.arange(H) + 0.5)], -1)[:, None, :]
+        U, V = np.meshgrid((np.arange(W) + 0.5 - W / 2) / f, -(np.arange(H) + 0.5 - H / 2) / f)
+        return np.stack([U, V, -np.ones_like(U)], -1)
+
+    def camera_directions(self) -> np.ndarray:
+        """Unit pixel-centre directions in camera space, ``[H, W, dim]``."""
+        d = self._raw_directions()
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
     def footprint(self) -> np.ndarray:
@@ -106,36 +100,23 @@ class Cameras:
         through the point ``(a, b)`` of pixel ``(v, u)`` (``a, b`` in [-1/2, 1/2], 0 at the
         centre) has the direction ``normalize(d + a s_0 + b s_1)``. In 2D ``s_0`` steps one row
         and ``s_1`` is zero (1D views)."""
-        f, H, W = self.focal, self.height, self.width
-        if self.dim == 2:
-            raw = np.stack([np.full(H, f), H / 2 - (np.arange(H) + 0.5)], -1)[:, None, :]
-            steps = np.stack([np.broadcast_to([0.0, -1.0], raw.shape), np.zeros(raw.shape)], -2)
-        else:
-            U, V = np.meshgrid((np.arange(W) + 0.5 - W / 2) / f, -(np.arange(H) + 0.5 - H / 2) / f)
-            raw = np.stack([U, V, -np.ones_like(U)], -1)
-            steps = np.stack([np.broadcast_to([1 / f, 0, 0], raw.shape), np.broadcast_to([0, -1 / f, 0], raw.shape)],
-                             -2)
-        steps = steps / np.linalg.norm(raw, axis=-1)[..., None, None]          # [H, W, 2, dim]
-        k = self.dim
-        return np.einsum("nij,hwsj->nhwsi", self.poses[:, :k, :k], steps)
+        raw, f, k = self._raw_directions(), self.focal, self.dim
+        s = [[0.0, -1.0], [0.0, 0.0]] if k == 2 else [[1 / f, 0, 0], [0, -1 / f, 0]]
+        steps = np.broadcast_to(s, raw.shape[:2] + (2, k)) / np.linalg.norm(raw, axis=-1)[..., None, None]
+        return np.einsum("nij,hwsj->nhwsi", self.poses[:, :k, :k], steps)        # steps: [H, W, 2, dim]
 
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions of every pixel-centre ray, each ``[n, H, W, dim]``."""
         k = self.dim
-        R = self.poses[:, :k, :k]
-        d = np.einsum("nij,hwj->nhwi", R, self.camera_directions())
+        d = np.einsum("nij,hwj->nhwi", self.poses[:, :k, :k], self.camera_directions())
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
         o = np.broadcast_to(self.origins[:, None, None, :], d.shape)
         return np.ascontiguousarray(o), d
 
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Continuous pixel coordinates of world points in every camera.
-
-        2D: ``points [m, 2]`` -> ``(row [n, m], forward [n, m])``. ``row`` is the
-        continuous image coordinate: the centre ray of pixel ``i`` passes through the
-        points with ``row == i + 0.5``, and pixel ``floor(row)`` sees the point.
-        ``forward`` is the camera-space distance along the view axis (> 0 in front).
-        """
+        """Continuous pixel coordinates of world points in every camera (2D only): ``points [m, 2]`` ->
+        ``(row [n, m], forward [n, m])``. Pixel ``floor(row)`` sees the point (the centre ray of pixel ``i``
+        has ``row == i + 0.5``); ``forward`` is the camera-space distance along the view axis (> 0 in front)."""
         if self.dim != 2:
             raise NotImplementedError("project() is defined for 2D cameras")
         inv = np.linalg.inv(self.poses)                       # world -> camera
@@ -147,22 +128,14 @@ class Cameras:
         return row, fwd
 
     def mitsuba_frames(self) -> np.ndarray:
-        """``to_world`` matrices of Mitsuba ``perspective`` sensors, ``[n, 4, 4]``.
-
-        Mitsuba's camera looks down +z with +x to the left of the image and +y up.
-        In 2D the film is ``H x 1`` with its x axis along the 1D image, so film
-        column ``i`` is pixel row ``i``; in 3D the film is ``W x H``.
-        """
+        """``to_world`` matrices of Mitsuba ``perspective`` sensors, ``[n, 4, 4]`` (Mitsuba looks down +z, +x to
+        the image's left, +y up). In 2D the film is ``H x 1`` (film column ``i`` is pixel row ``i``); 3D: ``W x H``."""
+        if self.dim == 3:
+            return self.poses @ np.diag([-1.0, 1.0, -1.0, 1.0])
         n = len(self)
         M = np.zeros((n, 4, 4))
-        M[:, 3, 3] = 1
-        if self.dim == 2:
-            fwd = np.c_[self.poses[:, :2, 0], np.zeros(n)]
-            up2 = np.c_[self.poses[:, :2, 1], np.zeros(n)]
-            M[:, :3, 0] = up2                       # film x=0 (left) is pixel row 0
-            M[:, :3, 1] = np.cross(fwd, up2)        # +z for a proper rotation
-            M[:, :3, 2] = fwd
-            M[:, :3, 3] = np.c_[self.origins, np.zeros(n)]
-        else:
-            M[:] = self.poses @ np.diag([-1.0, 1.0, -1.0, 1.0])
+        fwd, up2 = (np.c_[self.poses[:, :2, j], np.zeros(n)] for j in (0, 1))
+        M[:, :3, 0] = up2                       # film x=0 (left) is pixel row 0
+        M[:, :3, 1] = np.cross(fwd, up2)        # +z for a proper rotation
+        M[:, :3, 2], M[:, :3, 3], M[:, 3, 3] = fwd, np.c_[self.origins, np.zeros(n)], 1
         return M

@@ -1,14 +1,12 @@
 """Datasets in memory: cameras and images per split, plus the scene's bounds.
 
-Colours are kept in display (sRGB) space, premultiplied over black, with coverage
-``alpha`` beside them, so any background can be composited later:
-``target = color + (1 - alpha) * background``. This matches what NeRF codes train on
-(8-bit sRGB PNGs); datasets rendered here also keep the exact linear floats.
+Colours are kept in display (sRGB) space, premultiplied over black, with coverage ``alpha``
+beside them, so any background can be composited later: ``target = color + (1 - alpha) * background``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -40,8 +38,7 @@ class Split:
 
     cameras: Cameras
     color: np.ndarray
-    """Display-space (sRGB) colour premultiplied by ``alpha`` (i.e. over black), float32,
-    ``[n, H, W, 3]``; see :func:`~mitnerf.data.color.display_color`."""
+    """Display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32, ``[n, H, W, 3]``."""
     alpha: np.ndarray
     """Coverage in [0, 1], ``[n, H, W]`` (all ones when a format has no alpha)."""
     depth: np.ndarray | None = None
@@ -77,10 +74,9 @@ class Split:
         """The views of several splits of one camera model, in order."""
         if len(parts) == 1:
             return parts[0]
-        c = parts[0].cameras
         cat = lambda name: (None if getattr(parts[0], name) is None
                             else np.concatenate([getattr(p, name) for p in parts]))
-        cams = Cameras(np.concatenate([p.cameras.poses for p in parts]), c.focal, c.height, c.width)
+        cams = replace(parts[0].cameras, poses=np.concatenate([p.cameras.poses for p in parts]))
         return cls(cams, cat("color"), cat("alpha"), cat("depth"), cat("mask"), cat("linear"))
 
     def target(self, background=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -131,9 +127,8 @@ class Dataset:
 
     @property
     def bound(self) -> float:
-        """Half-extent that normalises positions: the object's radius plus 10 %. From the
-        outline (2D datasets rendered here), the unit sphere (3D objects here), or for
-        foreign data the median camera distance minus the near plane."""
+        """Half-extent that normalises positions: 1.1 x the object's radius, from the outline or the unit sphere
+        of datasets rendered here (2D / 3D), else the median camera distance minus ``near`` (foreign data)."""
         meta = self.meta
         if "polygon" in meta:
             r = float(np.linalg.norm(np.asarray(meta["polygon"]), axis=1).max())
@@ -149,9 +144,8 @@ class Dataset:
         return tuple(self.meta.get("background", (0.0, 0.0, 0.0) if self.dim == 2 else (1.0, 1.0, 1.0)))
 
     def sparse(self, train_index=None) -> "Dataset":
-        """The training views ``train_index`` (all if None) and the test split, without the
-        validation split: what a few-view experiment trains on (no validation means the
-        trainer never stops a sparse run for looking collapsed; NaN still stops it)."""
+        """The training views ``train_index`` (all if None) and the test split, no validation split (so the
+        trainer never stops a few-view run for looking collapsed; NaN still stops it)."""
         train = self["train"] if train_index is None else self["train"].subset(train_index)
         return Dataset({"train": train, "test": self["test"]}, self.near, self.far, dict(self.meta))
 

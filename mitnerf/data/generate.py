@@ -19,9 +19,8 @@ from .rig import RigConfig, make_rig
 def render_cameras(mi_scene, cams: Cameras, settings: RenderSettings) -> Split:
     """Ground truth of every view of ``cams``: colour, coverage, exact depth and mask."""
     if len(cams) == 0:
-        H, W = cams.height, cams.width
-        z = np.zeros((0, H, W), np.float32)
-        return Split.from_linear(cams, np.zeros((0, H, W, 3), np.float32), z, z, z.astype(bool))
+        z = np.zeros((0, cams.height, cams.width), np.float32)
+        return Split.from_linear(cams, np.zeros(z.shape + (3,), np.float32), z, z, z.astype(bool))
     rgb, alpha = render_color(mi_scene, cams.mitsuba_frames(), cams.fov, cams.height, cams.width, settings)
     depth, mask = exact_depth(mi_scene, *cams.rays())
     return Split.from_linear(cams, rgb, alpha, depth, mask)
@@ -30,20 +29,17 @@ def render_cameras(mi_scene, cams: Cameras, settings: RenderSettings) -> Split:
 def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderSettings | None = None,
                  progress: bool = True) -> Dataset:
     """Render train/val/test views of ``scene``; deterministic for ``rig.seed`` and ``render.seed``."""
-    rig = rig or RigConfig(dim=2 if scene.kind == "2d" else 3)
-    expected = 2 if scene.kind == "2d" else 3
-    if rig.dim != expected:
-        rig = dataclasses.replace(rig, dim=expected)
+    dim = 2 if scene.kind == "2d" else 3
+    rig = rig or RigConfig(dim=dim)
+    rig = rig if rig.dim == dim else dataclasses.replace(rig, dim=dim)
     render = render or RenderSettings()
     if scene.lighting == "env" and render.integrator == "all_lights":
         raise ConfigError(f"{scene.name} is lit by an environment, which the all_lights integrator cannot sum; "
                           "render it with integrator 'path' (--integrator path, the default with --env)")
     cams = make_rig(rig).splits()
     mi_scene = scene.load()
-    per_view = rig.resolution * (1 if rig.dim == 2 else rig.resolution) * render.spp
-    chunk = max(1, render.max_samples_per_launch // per_view)
-    total = sum(len(c) for c in cams.values())
-    splits = {}
+    chunk = max(1, render.max_samples_per_launch // (rig.resolution * (1 if dim == 2 else rig.resolution) * render.spp))
+    splits, total = {}, sum(len(c) for c in cams.values())
     with tqdm(total=total, desc=f"render {scene.name}", unit="view", disable=not progress, leave=False) as bar:
         for name, c in cams.items():
             parts = []
@@ -54,15 +50,11 @@ def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderS
             splits[name] = Split.concatenate(parts) if parts else render_cameras(mi_scene, c, render)
     near, far = bounds_from_cameras(list(cams.values()), scene.radius)
     meta = {"scene": scene.name, "kind": scene.kind, "near": near, "far": far,
-            "background": [0.0] * 3 if scene.kind == "2d" else [1.0] * 3,
-            "rig": dataclasses.asdict(rig), "render": dataclasses.asdict(render),
-            "generator": f"mitnerf {__version__}"}
+            "background": [0.0 if dim == 2 else 1.0] * 3, "rig": dataclasses.asdict(rig),
+            "render": dataclasses.asdict(render), "generator": f"mitnerf {__version__}"}
     if scene.polygon is not None:
         meta["polygon"] = np.r_[scene.polygon.points, scene.polygon.points[:1]].tolist()
-    if scene.mesh is not None:
-        meta["mesh"] = str(scene.mesh)
-    if scene.texture is not None:
-        meta["texture"] = str(scene.texture)
+    meta.update({k: str(v) for k, v in (("mesh", scene.mesh), ("texture", scene.texture)) if v is not None})
     if (scene.material, scene.lighting) != ("diffuse", "points"):    # default datasets keep their bytes
         meta.update(material=scene.material, lighting=scene.lighting)
     return Dataset(splits, near, far, meta)

@@ -1,9 +1,6 @@
-"""Camera rigs: where the cameras stand, with Gaussian placement noise.
-
-The NeRF2D protocol: train and val cameras are placed at random (or evenly, for
-sparse-view studies) around the object and perturbed; test cameras are evenly
-spaced and noise-free. 2D rigs use a circle in the z = 0 plane; 3D rigs a sphere or
-the upper hemisphere, with test views on a 360 degree orbit.
+"""Camera rigs, the NeRF2D protocol: train and val cameras are placed at random (or evenly, for
+sparse-view studies) and perturbed by Gaussian noise; test cameras are evenly spaced and noise-free.
+2D rigs use a circle in the z = 0 plane; 3D rigs a sphere or the upper hemisphere (test views: an orbit).
 """
 
 from __future__ import annotations
@@ -30,13 +27,11 @@ class RigConfig:
     n_test: int = 20
     """Test views: evenly spaced, noise-free (in 3D: an orbit at ``test_elevation``)."""
     radius: float | None = None
-    """Distance of the cameras from the origin (world units). Default: 4 in 2D (NeRF2D),
-    3.5 in 3D (the unit-sphere object then spans ~32 of the 40 degree view)."""
+    """Distance of the cameras from the origin (world units). Default: 4 in 2D (NeRF2D), 3.5 in 3D."""
     resolution: int = 100
     """Pixels along the 1D image (2D) or along each side of the image (3D)."""
     fov: float | None = None
-    """Field of view in degrees (2D: along the image; 3D: horizontal). Default: 53.13 in 2D
-    (the NeRF2D focal of 100 px at 100 px), 40 in 3D."""
+    """Field of view in degrees (2D: along the image; 3D: horizontal). Default: 53.13 in 2D (NeRF2D), 40 in 3D."""
     layout: Literal["random", "even"] = "random"
     """Train/val placement: uniform at random, or evenly spaced (sparse-view studies)."""
     surface: Literal["hemisphere", "sphere"] = "hemisphere"
@@ -80,10 +75,8 @@ class RigConfig:
 
 
 def noise_preset(level: float) -> dict[str, float]:
-    """Noise parameters scaled by one knob (``--noise``): 1 means radius 0.1, angles 2
-    degrees, position 0.05 and look-at 1 degree."""
-    return dict(radius_std=0.1 * level, angle_std=2.0 * level,
-                position_std=0.05 * level, look_std=1.0 * level)
+    """Noise parameters scaled by one knob (``--noise``): 1 is radius 0.1, angles 2 deg, position 0.05, look 1 deg."""
+    return dict(radius_std=0.1 * level, angle_std=2.0 * level, position_std=0.05 * level, look_std=1.0 * level)
 
 
 def look_at_2d(position: np.ndarray, view_angle: np.ndarray) -> np.ndarray:
@@ -92,8 +85,7 @@ def look_at_2d(position: np.ndarray, view_angle: np.ndarray) -> np.ndarray:
     P = np.zeros((len(c), 3, 3))
     P[:, 0, 0], P[:, 1, 0] = c, s          # forward
     P[:, 0, 1], P[:, 1, 1] = -s, c         # up: forward turned by +90 degrees
-    P[:, :2, 2] = position
-    P[:, 2, 2] = 1
+    P[:, :2, 2], P[:, 2, 2] = position, 1
     return P
 
 
@@ -109,53 +101,39 @@ def look_at_3d(position: np.ndarray, forward: np.ndarray, up=(0.0, 0.0, 1.0)) ->
     return P
 
 
-def _place_2d(cfg: RigConfig, n: int, rng, noisy: bool, even: bool, offset: float = 0.0) -> np.ndarray:
-    if even:
-        angle = offset + 2 * np.pi * np.arange(n) / max(n, 1)
-    else:
-        angle = rng.uniform(0, 2 * np.pi, n)
-    radius = np.full(n, cfg.radius)
-    look = np.zeros(n)
-    jitter = np.zeros((n, 2))
-    if noisy:
-        angle = angle + np.radians(cfg.angle_std) * rng.standard_normal(n)
-        radius = radius + cfg.radius_std * rng.standard_normal(n)
-        jitter = cfg.position_std * rng.standard_normal((n, 2))
-        look = np.radians(cfg.look_std) * rng.standard_normal(n)
-    pos = radius[:, None] * np.stack([np.cos(angle), np.sin(angle)], 1) + jitter
-    target_dir = np.arctan2(-pos[:, 1], -pos[:, 0])     # look at the origin ...
-    return look_at_2d(pos, target_dir + look)           # ... up to the look-at noise
-
-
-def _place_3d(cfg: RigConfig, n: int, rng, noisy: bool, test: bool) -> np.ndarray:
-    max_el = np.radians(80.0)
-    if test:
-        az = 2 * np.pi * np.arange(n) / max(n, 1)
-        el = np.full(n, np.radians(cfg.test_elevation))
+def _place(cfg: RigConfig, n: int, rng, test: bool, offset: float = 0.0) -> np.ndarray:
+    """Poses of ``n`` cameras: evenly spaced and noise-free (``test``), or placed by ``cfg.layout`` and
+    perturbed (train/val; a 2D even layout starts at the angle ``offset``)."""
+    ring, max_el = 2 * np.pi * np.arange(n) / max(n, 1), np.radians(80.0)
+    lo = 0.0 if cfg.surface == "hemisphere" else -np.sin(max_el)
+    if cfg.dim == 2:             # angles: [around the circle]; 3D: [azimuth, elevation]
+        angles = [offset + ring if test or cfg.layout == "even" else rng.uniform(0, 2 * np.pi, n)]
+    elif test:
+        angles = [ring, np.full(n, np.radians(cfg.test_elevation))]
     elif cfg.layout == "even":   # a Fibonacci lattice on the allowed band, randomly turned
         k = np.arange(n) + 0.5
-        lo = 0.0 if cfg.surface == "hemisphere" else -np.sin(max_el)
         el = np.arcsin(lo + (np.sin(max_el) - lo) * k / max(n, 1))
-        az = np.pi * (1 + 5 ** 0.5) * k + rng.uniform(0, 2 * np.pi)
+        angles = [np.pi * (1 + 5 ** 0.5) * k + rng.uniform(0, 2 * np.pi), el]
     else:                        # uniform on the sphere band (area-preserving)
-        lo = 0.0 if cfg.surface == "hemisphere" else -np.sin(max_el)
         el = np.arcsin(rng.uniform(lo, np.sin(max_el), n))
-        az = rng.uniform(0, 2 * np.pi, n)
-    radius = np.full(n, cfg.radius)
-    jitter = np.zeros((n, 3))
-    yaw = pitch = np.zeros(n)
-    if noisy:
-        az = az + np.radians(cfg.angle_std) * rng.standard_normal(n)
-        el = np.clip(el + np.radians(cfg.angle_std) * rng.standard_normal(n), -max_el, max_el)
+        angles = [rng.uniform(0, 2 * np.pi, n), el]
+    # look-at noise: 2D [one angle]; 3D [yaw, pitch]
+    radius, jitter, look = np.full(n, cfg.radius), np.zeros((n, cfg.dim)), [np.zeros(n)] * (cfg.dim - 1)
+    if not test:
+        angles = [a + np.radians(cfg.angle_std) * rng.standard_normal(n) for a in angles]
         radius = radius + cfg.radius_std * rng.standard_normal(n)
-        jitter = cfg.position_std * rng.standard_normal((n, 3))
-        yaw = np.radians(cfg.look_std) * rng.standard_normal(n)
-        pitch = np.radians(cfg.look_std) * rng.standard_normal(n)
+        jitter = cfg.position_std * rng.standard_normal((n, cfg.dim))
+        look = [np.radians(cfg.look_std) * rng.standard_normal(n) for _ in range(cfg.dim - 1)]
+    if cfg.dim == 2:
+        pos = radius[:, None] * np.stack([np.cos(angles[0]), np.sin(angles[0])], 1) + jitter
+        return look_at_2d(pos, np.arctan2(-pos[:, 1], -pos[:, 0]) + look[0])    # the origin, up to the noise
+    az, el = angles[0], angles[1] if test else np.clip(angles[1], -max_el, max_el)
     pos = radius[:, None] * np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], 1) + jitter
     P = look_at_3d(pos, -pos)
     # look-at noise: turn the forward axis by (yaw, pitch) about the camera's up and right axes
-    f, r, u = -P[:, :3, 2], P[:, :3, 0], P[:, :3, 1]
-    f2 = (np.cos(yaw) * np.cos(pitch))[:, None] * f + np.sin(yaw)[:, None] * r + (np.cos(yaw) * np.sin(pitch))[:, None] * u
+    (yaw, pitch), f, r, u = look, -P[:, :3, 2], P[:, :3, 0], P[:, :3, 1]
+    f2 = ((np.cos(yaw) * np.cos(pitch))[:, None] * f + np.sin(yaw)[:, None] * r
+          + (np.cos(yaw) * np.sin(pitch))[:, None] * u)
     return look_at_3d(pos, f2)
 
 
@@ -176,18 +154,8 @@ def make_rig(cfg: RigConfig) -> Rig:
     """Place the cameras of every split (deterministic for ``cfg.seed``)."""
     cfg.validate()
     rng = np.random.default_rng(cfg.seed)
-    H = cfg.resolution
+    offset = rng.uniform(0, 2 * np.pi) if cfg.dim == 2 else 0.0     # turns 2D even layouts off the test views
+    poses = [_place(cfg, cfg.n_train, rng, False, offset),
+             _place(cfg, cfg.n_val, rng, False, offset + np.pi / max(cfg.n_val, 1)), _place(cfg, cfg.n_test, rng, True)]
     W = 1 if cfg.dim == 2 else cfg.resolution
-    even = cfg.layout == "even"
-    if cfg.dim == 2:
-        # even layouts are turned by a random offset so that they miss the test views
-        offset = rng.uniform(0, 2 * np.pi)
-        poses = [_place_2d(cfg, cfg.n_train, rng, True, even, offset),
-                 _place_2d(cfg, cfg.n_val, rng, True, even, offset + np.pi / max(cfg.n_val, 1)),
-                 _place_2d(cfg, cfg.n_test, rng, False, True)]
-    else:
-        poses = [_place_3d(cfg, cfg.n_train, rng, True, False),
-                 _place_3d(cfg, cfg.n_val, rng, True, False),
-                 _place_3d(cfg, cfg.n_test, rng, False, True)]
-    train, val, test = (Cameras(p, cfg.focal, H, W) for p in poses)
-    return Rig(train, val, test, cfg)
+    return Rig(*(Cameras(p, cfg.focal, cfg.resolution, W) for p in poses), cfg)

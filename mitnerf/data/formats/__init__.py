@@ -1,20 +1,20 @@
-"""Dataset file formats: NeRF2D (2D, ours and the original add-on's), Blender, nerfstudio
-and instant-ngp ``transforms.json`` (3D; nerfstudio also 2D), tiny-NeRF (3D, one file).
-
-:func:`load_dataset` detects the format and checks every input (:mod:`.common`);
-:func:`save_dataset` writes NeRF2D for 2D and Blender for 3D unless told otherwise,
-into a folder that follows mitnerf's output rules (:class:`mitnerf._io.Output`).
+"""Dataset file formats: NeRF2D (2D, ours and the original add-on's), Blender, nerfstudio and instant-ngp
+``transforms.json`` (3D; nerfstudio also 2D), tiny-NeRF (3D, one file). Every input is checked (:mod:`.common`).
 """
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
+
+import numpy as np
 
 from ..._io import Output, atomic_write_bytes
 from ...errors import DataError, OutputError
-from ..dataset import Dataset
+from ..cameras import Cameras
+from ..dataset import SPLITS, Dataset, Split
+from .common import MAX_SIDE, check_focal, check_memory, check_poses, integer, npz_shapes, read_npz
 from .nerf2d import read_nerf2d, write_nerf2d
-from .tiny_nerf import read_tiny_nerf, tiny_nerf_bytes
 from .transforms import read_transforms, write_blender, write_nerfstudio
 
 WRITERS = {"nerf2d": write_nerf2d, "blender": write_blender, "nerfstudio": write_nerfstudio}
@@ -44,8 +44,7 @@ def detect_format(path: str | Path) -> str:
 
 def load_dataset(path: str | Path) -> Dataset:
     """Read and check a dataset in any supported format; ``meta['path']`` records where from."""
-    fmt = detect_format(path)
-    ds = {"nerf2d": read_nerf2d, "transforms": read_transforms, "tiny_nerf": read_tiny_nerf}[fmt](path)
+    ds = {"nerf2d": read_nerf2d, "transforms": read_transforms, "tiny_nerf": read_tiny_nerf}[detect_format(path)](path)
     ds.meta["path"] = str(Path(path).resolve())
     return ds
 
@@ -54,15 +53,14 @@ def check_output(out: str | Path, fmt: str, overwrite: bool = False) -> Output |
     """Apply the output rules to ``out`` now, before any work (a file is never replaced)."""
     if fmt not in FORMATS:
         raise DataError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
-    if fmt == "tiny_nerf":
-        if Path(out).exists() or Path(out).is_symlink():
-            raise OutputError(f"{out} exists; mitnerf never replaces a file: choose another file name")
-        return None
-    return Output(out, "dataset", overwrite)
+    if fmt == "tiny_nerf" and (Path(out).exists() or Path(out).is_symlink()):
+        raise OutputError(f"{out} exists; mitnerf never replaces a file: choose another file name")
+    return None if fmt == "tiny_nerf" else Output(out, "dataset", overwrite)
 
 
 def save_dataset(dataset: Dataset, out: str | Path, fmt: str | None = None, overwrite: bool = False) -> Path:
-    """Write ``dataset`` in ``fmt``; a folder follows the output rules, a file is never replaced."""
+    """Write ``dataset`` in ``fmt`` (default: NeRF2D for 2D, Blender for 3D); a folder follows the output rules
+    (:class:`mitnerf._io.Output`), a file is never replaced."""
     fmt = fmt or ("nerf2d" if dataset.dim == 2 else "blender")
     target = check_output(out, fmt, overwrite)
     if target is None:
@@ -70,6 +68,68 @@ def save_dataset(dataset: Dataset, out: str | Path, fmt: str | None = None, over
     with target.staged() as tmp:
         WRITERS[fmt](dataset, tmp)
     return out
+
+
+def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dataset:
+    """The classic ``tiny_nerf_data.npz``: ``images [N, H, W, 3]`` (sRGB floats), ``poses [N, 4, 4]`` (OpenGL
+    cameras), ``focal`` (pixels); no depth or alpha. Splits follow the tiny-NeRF notebook: the first
+    ``min(100, N - 2)`` frames train, the next one validates, the rest test (frame 101, the notebook's test view,
+    among them); files written here add ``n_train`` and ``n_val`` keys, which take precedence."""
+    path = Path(path)
+    shape = npz_shapes(path).get("images", ((),))[0]
+    if len(shape) == 4:                 # refuse huge images from the header, before loading them
+        n, H, W = shape[:3]
+        if max(H, W) > MAX_SIDE:
+            raise DataError(f"{path}: views of {H} x {W} pixels are too large (at most {MAX_SIDE} per side); "
+                            "downsample them")
+        check_memory(n * H * W, str(path))
+    data = read_npz(path)
+    missing = [k for k in ("images", "poses", "focal") if k not in data]
+    if missing:
+        raise DataError(f"{path} lacks {', '.join(missing)}; a tiny-NeRF file has 'images', 'poses' and 'focal'")
+    images, poses, focal = data["images"], data["poses"], data["focal"]
+    if images.ndim != 4 or images.shape[-1] not in (3, 4) or images.dtype.kind not in "uif":
+        raise DataError(f"{path}: 'images' must be [N, H, W, 3] numbers, got {images.shape} {images.dtype}")
+    if poses.shape != (len(images), 4, 4) or poses.dtype.kind not in "if":
+        raise DataError(f"{path}: {len(images)} images need 'poses' of shape [{len(images)}, 4, 4], got {poses.shape}")
+    if focal.size != 1 or focal.dtype.kind not in "if":
+        raise DataError(f"{path}: 'focal' must be one number (pixels), got {focal.shape} {focal.dtype}")
+    n, H, W = images.shape[:3]
+    if max(H, W) > MAX_SIDE:
+        raise DataError(f"{path}: views of {H} x {W} pixels are too large; downsample them")
+    if n < 3:
+        raise DataError(f"{path} has {n} frames; need at least 3 (train, val, test)")
+    check_memory(n * H * W, str(path))
+    check_poses(poses.astype(np.float64), str(path))
+    focal = check_focal(float(focal.reshape(-1)[0]), W, str(path))
+    n_train = _count(data, "n_train", path, 1, n - 1) if "n_train" in data else min(100, n - 2)
+    n_val = _count(data, "n_val", path, 0, n - n_train - 1) if "n_val" in data else 1
+    img = images[..., :3].astype(np.float32) / (255.0 if images.dtype == np.uint8 else 1.0)
+    if not np.isfinite(img).all():
+        raise DataError(f"{path}: 'images' contains NaN or infinity; replace the file")
+    cuts = {"train": slice(0, n_train), "val": slice(n_train, n_train + n_val), "test": slice(n_train + n_val, None)}
+    splits = {s: Split(Cameras(poses[c], focal, H, W), np.clip(img[c], 0, 1), np.ones(img[c].shape[:3], np.float32))
+              for s, c in cuts.items()}
+    return Dataset(splits, near, far, {"format": "tiny_nerf", "scene": path.stem, "background": [0.0] * 3})
+
+
+def _count(data: dict, key: str, path: Path, lo: int, hi: int) -> int:
+    if data[key].size != 1:
+        raise DataError(f"{path}: {key!r} must be one number, got an array of shape {data[key].shape}; fix the file")
+    return integer(data[key].reshape(-1)[0], f"{path}: {key}", lo, hi)
+
+
+def tiny_nerf_bytes(dataset: Dataset) -> bytes:
+    """The file of train + val + test (in that order, composited over the dataset's background)."""
+    if dataset.dim != 3:
+        raise DataError("tiny-NeRF files hold 3D datasets only")
+    order = [dataset[s] for s in SPLITS]
+    images = np.concatenate([s.target(dataset.background) for s in order]).astype(np.float32)
+    poses = np.concatenate([s.cameras.poses for s in order]).astype(np.float32)
+    buf = io.BytesIO()
+    np.savez(buf, images=images, poses=poses, focal=np.float32(order[0].cameras.focal),
+             n_train=len(order[0]), n_val=len(order[1]))
+    return buf.getvalue()
 
 
 __all__ = ["FORMATS", "check_output", "load_dataset", "save_dataset", "detect_format", "read_nerf2d", "write_nerf2d",

@@ -1,16 +1,10 @@
 """Reading hostile files: every value is checked before it is used, every failure is one
 :class:`~mitnerf.errors.DataError` line that names the file, the problem and the fix.
 
-* JSON (:func:`read_json`, :func:`get`): syntax, the type of every value used.
-* Numbers (:func:`number`): real numbers only (``true`` is not a focal length), finite,
-  within plausible bounds.
-* Poses (:func:`check_poses`): finite, the rotation block orthonormal with determinant
-  +1 (no scale, shear or mirror), the bottom row ``0 ... 0 1``.
-* Images (:func:`image_size`, :func:`read_image`): the header is read first, so a
-  corrupt, truncated or absurdly large file is refused before it is decoded; views
-  larger than ``MAX_SIDE`` pixels, or a dataset that would not fit in memory
-  (:func:`check_memory`), are refused with the estimate.
-* Arrays (:func:`read_npz`, :func:`read_npy`): never unpickled; shape and dtype checked.
+Numbers must be real (``true`` is not a focal length), finite and plausible; poses rigid (rotation
+orthonormal with determinant +1, bottom row ``0 ... 0 1``); images are refused from their header
+(corrupt, truncated, over ``MAX_SIDE`` pixels a side, or too large for memory) before they are
+decoded; arrays are never unpickled.
 """
 
 from __future__ import annotations
@@ -31,10 +25,9 @@ from ...errors import DataError
 META = "mitnerf.json"
 MAX_SIDE = 16384
 """Largest image side mitnerf accepts (pixels)."""
-PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
-"""The last 12 bytes of every complete PNG file (its empty IEND chunk)."""
 BYTES_PER_PIXEL = 96
 """Memory a training pixel costs: colour, coverage, depth, mask, its ray, and device copies."""
+_TYPES = {dict: "an object", list: "a list", str: "a string", (int, float): "a number"}
 
 
 def read_json(path: Path) -> dict:
@@ -54,9 +47,6 @@ def read_json(path: Path) -> dict:
     if not isinstance(data, dict):
         raise DataError(f"{path} must hold a JSON object, got {type(data).__name__}; fix or regenerate it")
     return data
-
-
-_TYPES = {dict: "an object", list: "a list", str: "a string", (int, float): "a number"}
 
 
 def get(obj: dict, key: str, kind: type, where: str, default=...):
@@ -93,9 +83,9 @@ def integer(value, what: str, lo: int = 1, hi: int = MAX_SIDE) -> int:
     return int(v)
 
 
-def matrices(frames: list, key: str, size: int, where: str) -> np.ndarray:
-    """``[n, size, size]`` float64 from ``frame[key]`` of every frame (lists of numbers)."""
-    out = np.empty((len(frames), size, size))
+def read_poses(frames: list, size: int, where: str) -> np.ndarray:
+    """Every frame's ``transform_matrix`` (lists of numbers, so every frame is a dict), checked: ``[n, size, size]``."""
+    out, key = np.empty((len(frames), size, size)), "transform_matrix"
     for i, f in enumerate(frames):
         m = f.get(key) if isinstance(f, dict) else None
         try:        # lists of real numbers only: not "0.5", true or null (numpy would convert them)
@@ -108,6 +98,7 @@ def matrices(frames: list, key: str, size: int, where: str) -> np.ndarray:
         if a.shape != (size, size):
             raise DataError(f"{where}: frame {i} has a {key!r} of shape {a.shape}, expected ({size}, {size})")
         out[i] = a
+    check_poses(out, where)
     return out
 
 
@@ -142,8 +133,7 @@ def check_focal(focal: float, pixels: int, where: str) -> float:
 
 @contextlib.contextmanager
 def _own_size_limits():
-    """PIL's decompression-bomb check (a warning on stderr, or an error that hides the size)
-    off: mitnerf refuses oversized views itself, with their size (``MAX_SIDE``, :func:`check_memory`)."""
+    """PIL's decompression-bomb check off: mitnerf refuses oversized views itself, with their size."""
     from PIL import Image
 
     old = Image.MAX_IMAGE_PIXELS
@@ -188,7 +178,7 @@ def read_image(path: Path) -> np.ndarray:
             if png:                    # verify() stops at the end chunk's name: check that all of it is there
                 with open(path, "rb") as f:
                     f.seek(max(0, os.fstat(f.fileno()).st_size - 4096))
-                    if PNG_END not in f.read():
+                    if b"\x00\x00\x00\x00IEND\xaeB`\x82" not in f.read():       # the empty IEND chunk that ends a PNG
                         raise EOFError("no end chunk")
             img = iio.imread(path)
     except Exception as exc:  # noqa: BLE001 - imageio raises many types for corrupt files
@@ -232,16 +222,13 @@ def npz_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
     try:
         with zipfile.ZipFile(path) as z:
             out = {}
-            for info in z.infolist():
-                if not info.filename.endswith(".npy"):
-                    continue
+            for info in (i for i in z.infolist() if i.filename.endswith(".npy")):
                 with z.open(info) as f:
                     version = np.lib.format.read_magic(f)
-                    read = {(1, 0): np.lib.format.read_array_header_1_0,
-                            (2, 0): np.lib.format.read_array_header_2_0}.get(version)
-                    if read is None:
+                    read = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+                    if version not in read:
                         raise ValueError(f"npy format {version}")
-                    shape, _, dtype = read(f)
+                    shape, _, dtype = read[version](f)
                 out[info.filename[:-4]] = (shape, dtype)
             return out
     except FileNotFoundError:
@@ -305,10 +292,9 @@ def read_meta(folder: Path) -> dict:
         if key in meta and not isinstance(meta[key], str):
             raise DataError(f"{path}: {key!r} must be a string, got {json.dumps(meta[key], default=str)[:40]}; "
                             "fix or delete the key")
-    if "background" in meta:
-        bg = meta["background"]
-        if not (isinstance(bg, list) and len(bg) == 3):
-            raise DataError(f"{path}: 'background' must be [r, g, b]; fix or delete the key")
-        for v in bg:
-            number(v, f"{path}: a background value", 0, 1, strict_lo=False)
+    bg = meta.get("background", [0, 0, 0])
+    if not (isinstance(bg, list) and len(bg) == 3):
+        raise DataError(f"{path}: 'background' must be [r, g, b]; fix or delete the key")
+    for v in bg:
+        number(v, f"{path}: a background value", 0, 1, strict_lo=False)
     return meta

@@ -1,17 +1,13 @@
-"""The NeRF2D format (the original NeRF2D code and its Blender add-on).
-
-::
+"""The NeRF2D format (the original NeRF2D code and its Blender add-on)::
 
     DIR/mitnerf.json                      (ours only: bounds and provenance)
     DIR/{train,val,test}/transforms.json  {"focal": f_px, "frames": [{"transform_matrix": 3x3}]}
     DIR/{split}/cam-{i}.png               H x 1 RGBA, 8-bit sRGB, colour over black + coverage
     DIR/{split}/cam-{i}.npz               depth_map (H x 1, -1 on a miss), intrinsic_mat (3x3)
 
-Frame ``i`` of ``transforms.json`` belongs to ``cam-{i}.*``. Pixel row ``i`` looks
-along ``normalize([f, H/2 - (i + 0.5)])`` rotated by the pose's 2x2 block (see
-:mod:`mitnerf.data.cameras`). Our ``.npz`` files add ``rgb_linear``, ``alpha`` and
-``mask``, which the original loader ignores; folders from the add-on load without them
-(and may store images as ``1 x H`` rows).
+Frame ``i`` of ``transforms.json`` belongs to ``cam-{i}.*``; rays as in :mod:`mitnerf.data.cameras`. Our
+``.npz`` files add ``rgb_linear``, ``alpha`` and ``mask``, which the original loader ignores; folders from
+the add-on load without them (and may store images as ``1 x H`` rows).
 """
 
 from __future__ import annotations
@@ -24,8 +20,8 @@ import numpy as np
 from ...errors import DataError
 from ..cameras import Cameras
 from ..color import display_color, to_uint8
-from ..dataset import SPLITS, Dataset, Split
-from .common import (as_rgba, check_focal, check_memory, check_poses, get, image_size, matrices, read_image,
+from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
+from .common import (as_rgba, check_focal, check_memory, get, image_size, read_image, read_poses,
                      read_json, read_meta, read_npz, write_meta)
 
 
@@ -42,23 +38,18 @@ def write_nerf2d(dataset: Dataset, folder: Path) -> None:
         frames = [{"transform_matrix": p.tolist()} for p in cams.poses]
         (d / "transforms.json").write_text(json.dumps({"focal": cams.focal, "frames": frames}, indent=1))
         K = np.array([[cams.focal, 0, 0], [0, cams.focal, (cams.height - 1) / 2], [0, 0, 1]])
+        depth = (None if split.depth is None                   # -1 on a miss
+                 else np.where(np.isfinite(split.depth), split.depth, -1.0).astype(np.float32))
         for i in range(len(split)):
-            rgba = np.concatenate([split.color[i], split.alpha[i][..., None]], -1)
-            iio.imwrite(d / f"cam-{i}.png", to_uint8(rgba))
-            extra = {}
-            if split.depth is not None:
-                extra["depth_map"] = np.where(np.isfinite(split.depth[i]), split.depth[i], -1.0).astype(np.float32)
-            if split.mask is not None:
-                extra["mask"] = split.mask[i]
-            if split.linear is not None:
-                extra["rgb_linear"] = split.linear[i]
+            iio.imwrite(d / f"cam-{i}.png", to_uint8(np.concatenate([split.color[i], split.alpha[i][..., None]], -1)))
+            extra = {k: v[i] for k, v in (("depth_map", depth), ("mask", split.mask), ("rgb_linear", split.linear))
+                     if v is not None}
             np.savez(d / f"cam-{i}.npz", intrinsic_mat=K, alpha=split.alpha[i], **extra)
     write_meta(folder, dataset, "nerf2d")
 
 
 def _column(a: np.ndarray, H: int, what: str, channels: int | None = None) -> np.ndarray:
-    """A per-pixel array of an ``H``-pixel view (``H``, ``H x 1`` or ``1 x H``) as ``[H, 1]``
-    (``[H, 1, channels]`` with ``channels``)."""
+    """A per-pixel array of an ``H``-pixel view (``H``, ``H x 1`` or ``1 x H``) as ``[H, 1(, channels)]``."""
     c = channels or 1
     if a.size != H * c or a.dtype.kind not in "uifb":
         raise DataError(f"{what} holds {a.shape} {a.dtype} values, expected {H * c} numbers ({c} per pixel); "
@@ -72,8 +63,7 @@ def _read_split(d: Path) -> Split:
     frames = get(data, "frames", list, where)
     if not frames:
         raise DataError(f"{d}: the split has no frames; add views or drop the split folder")
-    poses = matrices(frames, "transform_matrix", 3, where)
-    check_poses(poses, where)
+    poses = read_poses(frames, 3, where)
     n = len(frames)
     pngs = [d / f"cam-{i}.png" for i in range(n)]
     found = len(list(d.glob("cam-*.png")))
@@ -104,16 +94,15 @@ def _read_split(d: Path) -> Split:
             if any(present) and not all(present):
                 raise DataError(f"{d}: {npz[present.index(False)].name} lacks {key!r}, which the other views' "
                                 ".npz files hold; regenerate the dataset")
-        if all("depth_map" in f for f in files):
-            raw = np.stack([_column(f["depth_map"], H, str(p)) for f, p in zip(files, npz)]).astype(np.float32)
+        stack = lambda key, c=None: np.stack([_column(f[key], H, str(p), c) for f, p in zip(files, npz)])
+        if "depth_map" in files[0]:                 # each key is in every file or in none (checked above)
+            raw = stack("depth_map").astype(np.float32)
             if not np.isfinite(raw).all():
                 raise DataError(f"{d}: a depth_map holds NaN or infinity; misses are stored as -1")
             depth = np.where(raw < 0, np.inf, raw).astype(np.float32)
-            mask = (np.stack([_column(f["mask"], H, str(p)) for f, p in zip(files, npz)]).astype(bool)
-                    if all("mask" in f for f in files) else np.isfinite(depth))
-        if all("rgb_linear" in f and "alpha" in f for f in files):
-            linear = np.stack([_column(f["rgb_linear"], H, str(p), 3) for f, p in zip(files, npz)]).astype(np.float32)
-            alpha = np.stack([_column(f["alpha"], H, str(p)) for f, p in zip(files, npz)]).astype(np.float32)
+            mask = stack("mask").astype(bool) if "mask" in files[0] else np.isfinite(depth)
+        if "rgb_linear" in files[0] and "alpha" in files[0]:
+            linear, alpha = stack("rgb_linear", 3).astype(np.float32), stack("alpha").astype(np.float32)
             if linear.shape != (n, H, 1, 3) or not (np.isfinite(linear).all() and np.isfinite(alpha).all()):
                 raise DataError(f"{d}: rgb_linear must be finite H x 1 x 3 arrays; regenerate the dataset")
             if alpha.min() < 0 or alpha.max() > 1:
@@ -130,17 +119,10 @@ def read_nerf2d(path: str | Path) -> Dataset:
         raise DataError(f"{path} has no train/transforms.json; point at a NeRF2D dataset folder")
     meta = read_meta(path)
     near, far = meta.get("near"), meta.get("far")
-    if near is None or far is None:
-        near, far = _infer_bounds(list(splits.values()))
+    if near is None or far is None:         # foreign datasets: from the depth maps when present, else from the rig
+        depths = [s.depth[np.isfinite(s.depth)] for s in splits.values() if s.depth is not None]
+        depths = np.concatenate(depths) if depths else np.zeros(0)
+        near, far = ((max(0.05, depths.min() - 0.5), depths.max() + 1.0) if depths.size
+                     else bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0))
     meta.setdefault("format", "nerf2d")
     return Dataset(splits, float(near), float(far), meta)
-
-
-def _infer_bounds(splits: list[Split]) -> tuple[float, float]:
-    """Bounds of foreign datasets: from the depth maps when present, else from the rig."""
-    depths = [s.depth[np.isfinite(s.depth)] for s in splits if s.depth is not None]
-    depths = np.concatenate(depths) if depths else np.zeros(0)
-    if depths.size:
-        return float(max(0.05, depths.min() - 0.5)), float(depths.max() + 1.0)
-    dist = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in splits])
-    return float(max(0.05, dist.min() - 2.0)), float(dist.max() + 2.0)

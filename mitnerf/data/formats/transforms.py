@@ -10,8 +10,7 @@ written by mitnerf). Poses are OpenGL camera-to-world matrices (-z forward, +y u
     DIR/{split}/r_{i}_depth.npy           float32 H x W, distance along the ray, 0 on a miss
     DIR/{split}/r_{i}_linear.npy          float32 H x W x 4: exact linear RGB over black, alpha
 
-**nerfstudio layout** (``--format nerfstudio``; its ``nerfstudio-data`` parser loads it with
-no options)::
+**nerfstudio layout** (``--format nerfstudio``; nerfstudio's ``nerfstudio-data`` parser loads it as is)::
 
     DIR/transforms.json   {"camera_model": "PINHOLE", "fl_x", "fl_y", "cx", "cy", "w", "h",
                            "orientation_override": "none", "frames": [{"file_path": "images/train_0000.png",
@@ -19,14 +18,13 @@ no options)::
                            "mask_path": "masks/train_0000.png"}], "train_filenames", "val_filenames",
                            "test_filenames", "mitnerf_depth": {"kind": "z", "unit": 0.001}}
 
-Depth follows nerfstudio's convention: distance along the camera's optical axis (z), in
-thousandths of a world unit (its default ``depth_unit_scale_factor`` 1e-3), 0 on a miss.
-Masks are 8-bit, 255 where the pixel-centre ray hits the object. A 2D dataset is written
-as ``H x 1`` images of cameras in the z = 0 plane (``"mitnerf_dim": 2``) and read back as 2D.
+Depth follows nerfstudio's convention: distance along the camera's optical axis (z), in thousandths of a
+world unit (its default ``depth_unit_scale_factor`` 1e-3), 0 on a miss. Masks are 8-bit, 255 where the
+pixel-centre ray hits the object. A 2D dataset is written as ``H x 1`` images of cameras in the z = 0 plane
+(``"mitnerf_dim": 2``) and read back as 2D.
 
-**Reading** any of these, or an instant-ngp / nerfstudio folder of someone else's:
-intrinsics shared or per frame (equal within a split), square pixels, the principal
-point at the image centre; a camera model with distortion is refused. Splits come from
+**Reading** these or anyone's instant-ngp / nerfstudio folder: intrinsics shared or per frame (equal within a
+split), square pixels, the principal point at the image centre, no lens distortion. Splits come from
 ``*_filenames`` lists when present, else every 8th frame is held out for test.
 """
 
@@ -40,8 +38,8 @@ import numpy as np
 from ...errors import DataError
 from ..cameras import Cameras
 from ..color import display_color, to_uint8
-from ..dataset import SPLITS, Dataset, Split
-from .common import (as_rgba, check_focal, check_memory, check_poses, get, image_size, matrices, number, read_image,
+from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
+from .common import (as_rgba, check_focal, check_memory, get, image_size, number, read_image, read_poses,
                      read_json, read_meta, read_npy, write_meta)
 
 PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE", "OPENCV", "RADIAL", "SIMPLE_RADIAL")
@@ -83,8 +81,7 @@ def write_blender(dataset: Dataset, folder: Path) -> None:
 
 def pose_2d_to_3d(P: np.ndarray) -> np.ndarray:
     """NeRF2D 3x3 poses -> OpenGL 4x4 cameras in the z = 0 plane whose image column is the 1D view."""
-    n = len(P)
-    M = np.zeros((n, 4, 4))
+    M = np.zeros((len(P), 4, 4))
     f, u = P[:, :2, 0], P[:, :2, 1]
     M[:, :2, 1], M[:, :2, 2] = u, -f                     # +y: the view's up, +z: backwards
     M[:, 2, 0] = f[:, 0] * u[:, 1] - f[:, 1] * u[:, 0]   # +x = y x z, along the world's z axis
@@ -144,18 +141,16 @@ def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int
         raise DataError(f"{where}: camera model {model!r} is not a pinhole camera; mitnerf reads pinhole cameras "
                         "only: undistort the images first")
     values = []
-    for i, f in enumerate(frames):
-        get_ = lambda k: f[k] if k in f else header.get(k)
+    for i, f in enumerate(frames):      # a frame's own value, else the header's
+        v = {k: f.get(k, header.get(k)) for k in (*DISTORTION, "camera_angle_x", "fl_x", "fl_y", "w", "h", "cx", "cy")}
         for k in DISTORTION:
-            if get_(k) is not None and number(get_(k), f"{where}: {k}", strict_lo=False) != 0:
-                raise DataError(f"{where}: frame {i} has lens distortion ({k} = {get_(k)}); mitnerf reads pinhole "
+            if v[k] is not None and number(v[k], f"{where}: {k}", strict_lo=False) != 0:
+                raise DataError(f"{where}: frame {i} has lens distortion ({k} = {v[k]}); mitnerf reads pinhole "
                                 "cameras only: undistort the images first")
-        ang = None
-        if get_("camera_angle_x") is not None:
-            ang = number(get_("camera_angle_x"), f"{where}: camera_angle_x", 0, 3.14)
-        if get_("fl_x") is not None:
-            fx = number(get_("fl_x"), f"{where}: fl_x")
-            fy = number(get_("fl_y") if get_("fl_y") is not None else fx, f"{where}: fl_y")
+        ang = None if v["camera_angle_x"] is None else number(v["camera_angle_x"], f"{where}: camera_angle_x", 0, 3.14)
+        if v["fl_x"] is not None:
+            fx = number(v["fl_x"], f"{where}: fl_x")
+            fy = number(v["fl_y"] if v["fl_y"] is not None else fx, f"{where}: fl_y")
             if ang is not None and abs(2 * np.arctan(0.5 * W / fx) - ang) > 1e-3 * ang:
                 # the original NeRF and nerfstudio's Blender loader read camera_angle_x, instant-ngp fl_x
                 raise DataError(f"{where}: camera_angle_x = {ang:g} rad and fl_x = {fx:g} px disagree for images "
@@ -167,11 +162,11 @@ def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int
         if abs(fx - fy) > 1e-3 * fx:
             raise DataError(f"{where}: fl_x = {fx:g} and fl_y = {fy:g} differ; mitnerf needs square pixels")
         for key, size in (("w", W), ("h", H)):
-            if get_(key) is not None and number(get_(key), f"{where}: {key}", strict_lo=False) != size:
-                raise DataError(f"{where}: {key} = {get_(key)} but the images are {W} x {H}; fix the header")
+            if v[key] is not None and number(v[key], f"{where}: {key}", strict_lo=False) != size:
+                raise DataError(f"{where}: {key} = {v[key]} but the images are {W} x {H}; fix the header")
         for key, centre in (("cx", W / 2), ("cy", H / 2)):
-            if get_(key) is not None and abs(number(get_(key), f"{where}: {key}", strict_lo=False) - centre) > 0.51:
-                raise DataError(f"{where}: principal point {key} = {get_(key)} is off-centre; mitnerf's cameras need "
+            if v[key] is not None and abs(number(v[key], f"{where}: {key}", strict_lo=False) - centre) > 0.51:
+                raise DataError(f"{where}: principal point {key} = {v[key]} is off-centre; mitnerf's cameras need "
                                 "cx = w/2 and cy = h/2 (crop or re-render)")
         values.append(fx)
     if max(values) - min(values) > 1e-3 * max(values):
@@ -196,11 +191,11 @@ def _path(root: Path, value, where: str, suffix: str = ".png") -> Path:
     return p if p.suffix else p.with_suffix(suffix)
 
 
-def _read_frames(root: Path, header: dict, frames: list, where: str, depth_kind: dict | None, dim: int) -> Split:
+def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit: float | None, dim: int) -> Split:
+    """One split's views; nerfstudio's z-depths come in ``depth_unit``s (None: Blender's distances)."""
     if not frames:
         raise DataError(f"{where} lists no frames; add frames or drop the split")
-    poses = matrices(frames, "transform_matrix", 4, where)
-    check_poses(poses, where)
+    poses = read_poses(frames, 4, where)
     paths = [_path(root, f.get("file_path"), where) for f in frames]
     sizes = {image_size(p) for p in paths}
     if len(sizes) != 1:
@@ -215,18 +210,17 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_kind:
     color = img[..., :3] * a[..., None]
     cams = Cameras(pose_3d_to_2d(poses) if dim == 2 else poses, focal, H, W)
     depth = mask = linear = None
-    if all(isinstance(f, dict) and "depth_file_path" in f for f in frames):
+    if all("depth_file_path" in f for f in frames):          # every frame is a dict (read_poses() checked)
         raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy" else _plane(read_image(p), H, W, p)
                         for p in (_path(root, f["depth_file_path"], where, ".npy") for f in frames)])
         if not np.isfinite(raw).all() or (raw < 0).any():
             raise DataError(f"{where}: depth maps must be finite and >= 0 (0 on a miss)")
-        if depth_kind is not None:           # nerfstudio: z-depth in `unit`s -> distance along the ray
+        if depth_unit is not None:           # nerfstudio: z-depth in units -> distance along the ray
             dirs = cams.camera_directions()
-            cos = dirs[..., 0] if dim == 2 else -dirs[..., -1]
-            raw = raw * depth_kind["unit"] / cos
+            raw = raw * depth_unit / (dirs[..., 0] if dim == 2 else -dirs[..., -1])
         depth = np.where(raw > 0, raw, np.inf).astype(np.float32)
         mask = np.isfinite(depth)
-    if all(isinstance(f, dict) and "mask_path" in f for f in frames):
+    if all("mask_path" in f for f in frames):
         mask = np.stack([_plane(as_rgba(read_image(p))[..., 0], H, W, p) > 0.5
                          for p in (_path(root, f["mask_path"], where) for f in frames)])
     lpaths = [p.with_name(p.stem + "_linear.npy") for p in paths]
@@ -241,13 +235,6 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_kind:
             raise DataError(f"{where}: a _linear.npy file holds alpha outside [0, 1]; regenerate the dataset")
         color = display_color(linear, a)
     return Split(cams, color.astype(np.float32), a.astype(np.float32), depth, mask, linear)
-
-
-def _depth_kind(header: dict, where: str) -> dict:
-    kind = header.get("mitnerf_depth", {"kind": "z", "unit": NS_DEPTH_UNIT})
-    if not (isinstance(kind, dict) and kind.get("kind") == "z"):
-        raise DataError(f"{where}: 'mitnerf_depth' must be {{'kind': 'z', 'unit': 0.001}}; fix or remove it")
-    return {"kind": "z", "unit": number(kind.get("unit"), f"{where}: mitnerf_depth unit")}
 
 
 def read_transforms(path: str | Path) -> Dataset:
@@ -272,28 +259,26 @@ def read_transforms(path: str | Path) -> Dataset:
             if not isinstance(f, dict):
                 raise DataError(f"{where}: frame {i} must be an object with 'file_path' and 'transform_matrix'")
             _path(path, f.get("file_path"), f"{where}: frame {i}")          # a non-empty string
-        lists = {s: get(header, f"{s}_filenames", list, where, None) for s in SPLITS}
+        lists = {s: get(header, f"{s}_filenames", list, where, None) or [] for s in SPLITS}
         names = {f["file_path"] for f in frames}
         for s, v in lists.items():
-            for name in v or []:
+            for name in v:
                 if not (isinstance(name, str) and name in names):   # nerfstudio refuses these too
                     raise DataError(f"{where}: {s}_filenames lists {json.dumps(name)[:60]}, the file_path of no "
                                     "frame; fix the list or add the frame")
-        if any(v for v in lists.values()):
-            pick = {s: [f for f in frames if f["file_path"] in set(v or [])] for s, v in lists.items()}
-        else:
-            pick = {"train": [f for i, f in enumerate(frames) if i % 8], "test": frames[::8]}
-        kind = _depth_kind(header, where)
-        for s, fr in pick.items():
-            if fr:
-                splits[s] = _read_frames(path, header, fr, f"{where} ({s})", kind, dim)
+        pick = ({s: [f for f in frames if f["file_path"] in set(v)] for s, v in lists.items()} if any(lists.values())
+                else {"train": [f for i, f in enumerate(frames) if i % 8], "test": frames[::8]})
+        unit = header.get("mitnerf_depth", {"kind": "z", "unit": NS_DEPTH_UNIT})
+        if not (isinstance(unit, dict) and unit.get("kind") == "z"):
+            raise DataError(f"{where}: 'mitnerf_depth' must be {{'kind': 'z', 'unit': 0.001}}; fix or remove it")
+        unit = number(unit.get("unit"), f"{where}: mitnerf_depth unit")
+        splits = {s: _read_frames(path, header, fr, f"{where} ({s})", unit, dim) for s, fr in pick.items() if fr}
     if "train" not in splits:
         raise DataError(f"{path} has neither transforms_train.json nor transforms.json with training frames; "
                         "point at a Blender/nerfstudio dataset folder")
     meta = read_meta(path)
     meta.setdefault("format", fmt)
     near, far = meta.get("near"), meta.get("far")
-    if near is None or far is None:
-        dist = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in splits.values()])
-        near, far = max(0.05, dist.min() - 2.0), dist.max() + 2.0   # Blender scenes: 2..6 at radius 4
+    if near is None or far is None:       # Blender scenes: 2..6 at radius 4
+        near, far = bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0)
     return Dataset(splits, float(near), float(far), meta)
