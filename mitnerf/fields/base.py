@@ -19,10 +19,26 @@ from __future__ import annotations
 import dataclasses
 
 import drjit as dr
+from drjit.auto.ad import Float
 
 from ..errors import ConfigError, check_number
 
-DENSITY_ACTIVATIONS = ("relu", "softplus", "trunc_exp")
+_DENSITY = {
+    "relu": lambda raw: dr.maximum(raw, 0.0),                                         # NeRF
+    "softplus": lambda raw: dr.maximum(raw, 0.0) + dr.log(1.0 + dr.exp(-dr.abs(raw))),  # mip-NeRF, finite for large x
+    "trunc_exp": lambda raw: dr.exp(dr.minimum(raw, 15.0)),      # instant-ngp: clamped at e^15, gradients stay finite
+}
+DENSITY_ACTIVATIONS = tuple(_DENSITY)
+
+
+class Field:
+    """The parts of the protocol above that every field shares."""
+
+    def __init__(self, cfg):
+        self.cfg, self.dim = cfg, cfg.dim
+
+    def init_params(self, seed: int = 0) -> dict:
+        return self.from_numpy(self.init_numpy(seed))
 
 
 def check_types(cfg) -> None:
@@ -58,18 +74,21 @@ def check_config(cfg, **ranges) -> None:
 
 
 def density_activation(raw, kind: str):
-    """Raw network output -> density >= 0 (same formulas in the torch twin).
+    """Raw network output -> density >= 0 (same formulas in the torch twin)."""
+    if kind not in _DENSITY:
+        raise ValueError(f"unknown density activation {kind!r}; choose one of {', '.join(DENSITY_ACTIVATIONS)}")
+    return _DENSITY[kind](raw)
 
-    ``relu`` as in NeRF; ``softplus`` as in mip-NeRF (smooth, never dead);
-    ``trunc_exp`` as in instant-ngp: exp clamped at e^15 so gradients stay finite.
-    """
-    if kind == "relu":
-        return dr.maximum(raw, 0.0)
-    if kind == "softplus":   # log(1 + e^x), written to stay finite for large x
-        return dr.maximum(raw, 0.0) + dr.log(1.0 + dr.exp(-dr.abs(raw)))
-    if kind == "trunc_exp":
-        return dr.exp(dr.minimum(raw, 15.0))
-    raise ValueError(f"unknown density activation {kind!r}; choose one of {', '.join(DENSITY_ACTIVATIONS)}")
+
+def cell_corners(i0: list, frac: list):
+    """The ``2^D`` corners of the cells at integer coordinates ``i0`` (D arrays) for points at
+    fractions ``frac`` of them: ``(coordinates, bi/trilinear weight)``; corner bit ``a`` steps along axis ``a``."""
+    for c in range(1 << len(i0)):
+        bits = [(c >> a) & 1 for a in range(len(i0))]
+        weight = Float(1.0)
+        for f, bit in zip(frac, bits):
+            weight = weight * (f if bit else 1.0 - f)
+        yield [i + bit for i, bit in zip(i0, bits)], weight
 
 
 def sigmoid(x):

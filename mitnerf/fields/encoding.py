@@ -12,31 +12,22 @@ import drjit as dr
 
 
 def positional_encoding(x: list, L: int) -> list:
-    """NeRF's gamma: ``[x_j] + [sin(2^k pi x_j)]_j + [cos(2^k pi x_j)]_j`` for k < L.
-
-    ``x``: D arrays ``[n]`` (normalised coordinates, about [-1, 1]). ``L = 0`` is no
-    encoding (the raw coordinates). Returns ``D * (1 + 2 L)`` arrays ``[n]``.
-    """
+    """NeRF's gamma: ``[x_j] + [sin(2^k pi x_j)]_j + [cos(2^k pi x_j)]_j`` for k < L, ``D * (1 + 2 L)`` arrays
+    ``[n]`` of D arrays ``x`` ``[n]`` (normalised, about [-1, 1]); ``L = 0``: the raw coordinates."""
     out = list(x)
     for k in range(L):
-        freq = float(2.0 ** k * math.pi)
-        sc = [dr.sincos(xi * freq) for xi in x]
+        sc = [dr.sincos(xi * float(2.0 ** k * math.pi)) for xi in x]
         out += [s for s, _ in sc] + [c for _, c in sc]
     return out
 
 
 def angle_harmonics(d: list, L: int) -> list:
-    """2D view direction ``d = (cos t, sin t)`` -> ``[cos m t, sin m t]`` for m = 1, 2, 4, .., 2^(L-1).
-
-    Computed from ``d`` with the double-angle formulas (no atan2, smooth in d).
-    Returns ``2 L`` arrays.
-    """
-    if L == 0:
-        return []
-    c, s = d[0], d[1]
-    out = [c, s]
-    for _ in range(1, L):
-        c, s = c * c - s * s, 2.0 * s * c
+    """2D view direction ``d = (cos t, sin t)`` -> ``[cos m t, sin m t]`` for m = 1, 2, 4, .., 2^(L-1) (``2 L``
+    arrays), by the double-angle formulas (no atan2, smooth in d)."""
+    out, c, s = [], d[0], d[1]
+    for k in range(L):
+        if k:
+            c, s = c * c - s * s, 2.0 * s * c
         out += [c, s]
     return out
 
@@ -47,6 +38,4 @@ def direction_encoding(d: list, L: int) -> list:
 
 
 def encoded_size(dim: int, L: int, direction: bool = False) -> int:
-    if direction:
-        return 2 * L if dim == 2 else dim * (1 + 2 * L)
-    return dim * (1 + 2 * L)
+    return 2 * L if direction and dim == 2 else dim * (1 + 2 * L)

@@ -2,22 +2,9 @@
 
 Values live on ``R^D`` vertices spanning ``[-bound, bound]^D`` (vertex ``k`` at
 ``-bound + 2 bound k / (R - 1)``). A query interpolates raw values (bi/trilinear) and
-*then* applies the activations (density: softplus / relu / trunc_exp; colour:
-sigmoid), so a surface can be sharper than a cell, as in Plenoxels and DVGO.
-Outside the bound the density is 0.
-
-* **View dependence** (optional, as Plenoxels): each colour channel is an expansion in
-  the view direction up to ``sh_degree`` (:func:`view_basis`): in 2D the circular
-  harmonics ``1, cos t, sin t, cos 2t, sin 2t``, in 3D the real spherical harmonics
-  ``1, x, y, z, xy, yz, 3z^2 - 1, xz, x^2 - y^2`` (unnormalised), interpolated per vertex.
-* **Coarse to fine**: training starts at ``initial_resolution`` and doubles at the
-  steps in ``upsample_at`` up to ``resolution``; :meth:`resize` resamples the grids.
-* **Total variation**: :meth:`regularizer` returns ``tv_weight`` times the mean squared
-  difference of neighbouring density vertices (plus ``tv_color_weight`` for colour),
-  on a random subset of ``tv_samples`` vertices per step (0: all of them).
-
-Every operation is a gather, so the field is traceable (it runs inside the fused
-march). Twin: :mod:`mitnerf.reference.fields.grid`.
+*then* applies the activations, so a surface can be sharper than a cell, as in
+Plenoxels and DVGO. Outside the bound the density is 0. Every operation is a gather, so
+the field is traceable (it runs inside the fused march). Twin: :mod:`mitnerf.reference.fields.grid`.
 """
 
 from __future__ import annotations
@@ -26,11 +13,11 @@ from dataclasses import dataclass
 
 import drjit as dr
 import numpy as np
-from drjit.auto.ad import Float, UInt32
+from drjit.auto.ad import ArrayXf, Float, UInt32
 
 from ..errors import check_number
 from ..rng import hash_u32
-from .base import check_config, density_activation, sigmoid
+from .base import Field, cell_corners, check_config, density_activation, sigmoid
 
 
 @dataclass
@@ -82,36 +69,19 @@ class GridConfig:
 
     def resolution_at(self, step: int) -> int:
         res = self.initial_resolution
-        for s in sorted(self.upsample_at):
-            if step >= s:
-                res = min(2 * (res - 1) + 1, self.resolution)
+        for _ in range(sum(step >= s for s in self.upsample_at)):     # one doubling per step passed
+            res = min(2 * (res - 1) + 1, self.resolution)
         return res
 
 
 def corner_weights(x: list, bound: float, res: int):
-    """Cell corner indices and bi/trilinear weights of points ``x`` (D arrays) in a grid of
-    ``res^D`` vertices; also whether each point lies inside ``[-bound, bound]^D``.
-    Returns ``(list of (flat index UInt32, weight Float)), inside Bool``."""
-    D = len(x)
-    inside = None
-    i0, frac = [], []
-    for xi in x:
-        u = dr.clip((xi * (1.0 / bound) + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001)
-        f = dr.floor(u)
-        i0.append(UInt32(f))
-        frac.append(u - f)
-        ok = dr.abs(xi) <= bound
-        inside = ok if inside is None else inside & ok
-    corners = []
-    for c in range(1 << D):
-        index, weight, stride = UInt32(0), Float(1.0), 1
-        for a in range(D):
-            bit = (c >> a) & 1
-            index = index + (i0[a] + bit) * stride
-            weight = weight * (frac[a] if bit else 1.0 - frac[a])
-            stride *= res
-        corners.append((index, weight))
-    return corners, inside
+    """``([(flat index UInt32, bi/trilinear weight Float)] of the cell corners, inside Bool)`` of points ``x``
+    (D arrays) in a grid of ``res^D`` vertices; ``inside``: whether a point lies in ``[-bound, bound]^D``."""
+    u = [dr.clip((xi * (1.0 / bound) + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001) for xi in x]
+    i0 = [dr.floor(ui) for ui in u]
+    keys = cell_corners([UInt32(f) for f in i0], [ui - f for ui, f in zip(u, i0)])
+    corners = [(sum((k * res ** a for a, k in enumerate(key)), UInt32(0)), weight) for key, weight in keys]
+    return corners, dr.all([dr.abs(xi) <= bound for xi in x])
 
 
 def interpolate(grid: Float, channels: int, corners) -> list:
@@ -127,8 +97,7 @@ def view_basis(d: list, degree: int) -> list:
     """Harmonics of a unit view direction up to ``degree`` (1 or 2); works on Dr.Jit arrays
     and torch tensors alike. 2D ``d = (cos t, sin t)``: ``1, cos t, sin t, cos 2t, sin 2t``;
     3D: ``1, x, y, z, xy, yz, 3z^2 - 1, xz, x^2 - y^2``."""
-    one = d[0] * 0 + 1
-    out = [one, *d]
+    out = [d[0] * 0 + 1, *d]
     if degree >= 2:
         if len(d) == 2:
             c, s = d
@@ -139,60 +108,45 @@ def view_basis(d: list, degree: int) -> list:
     return out
 
 
-class GridField:
+class GridField(Field):
     """See the module docstring."""
 
-    def __init__(self, cfg: GridConfig):
-        self.cfg = cfg
-        self.dim = cfg.dim
-        self.traceable = True
+    traceable = True
 
-    # ------------------------------------------------------------------ storage
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
-        res = self.cfg.initial_resolution
-        shape = (res,) * self.dim
-        rng = np.random.default_rng(seed)
-        color = rng.normal(0, 0.01, shape + (3 * self.cfg.color_coeffs,)).astype(np.float32)
+        shape = (self.cfg.initial_resolution,) * self.dim
+        color = np.random.default_rng(seed).normal(0, 0.01, shape + (3 * self.cfg.color_coeffs,)).astype(np.float32)
         return {"density": np.full(shape, self.cfg.density_init / self.cfg.density_scale, np.float32), "color": color}
-
-    def init_params(self, seed: int = 0) -> dict:
-        return self.from_numpy(self.init_numpy(seed))
 
     def resolution_of(self, params) -> int:
         return int(round(dr.width(params["density"]) ** (1.0 / self.dim)))
 
     def to_numpy(self, params) -> dict:
-        res = self.resolution_of(params)
-        shape = (res,) * self.dim
+        shape = (self.resolution_of(params),) * self.dim
         return {"density": np.asarray(params["density"]).reshape(shape),
                 "color": np.asarray(params["color"]).reshape(shape + (3 * self.cfg.color_coeffs,))}
 
     def from_numpy(self, arrays) -> dict:
-        return {"density": Float(np.asarray(arrays["density"], np.float32).ravel()),
-                "color": Float(np.asarray(arrays["color"], np.float32).ravel())}
+        return {k: Float(np.asarray(arrays[k], np.float32).ravel()) for k in ("density", "color")}
 
-    # ------------------------------------------------------------------ evaluation
-    def _sigma(self, params, corners, inside):
+    def _sigma(self, params, x):
+        """Density at ``x``, and the cell corners around it."""
+        corners, inside = corner_weights(list(x), self.cfg.bound, self.resolution_of(params))
         raw = interpolate(params["density"], 1, corners)[0] * self.cfg.density_scale
-        return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0)
+        return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
 
     def density(self, params, x) -> Float:
-        corners, inside = corner_weights(list(x), self.cfg.bound, self.resolution_of(params))
-        return self._sigma(params, corners, inside)
+        return self._sigma(params, x)[0]
 
     def query(self, params, x, d):
-        corners, inside = corner_weights(list(x), self.cfg.bound, self.resolution_of(params))
-        sigma = self._sigma(params, corners, inside)
+        sigma, corners = self._sigma(params, x)
         K = self.cfg.color_coeffs
-        coef = interpolate(params["color"], 3 * K, corners)
-        if K == 1:
-            raw = coef
-        else:
+        raw = interpolate(params["color"], 3 * K, corners)
+        if K > 1:
             basis = view_basis(list(d), self.cfg.sh_degree)
-            raw = [sum(coef[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
+            raw = [sum(raw[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
         return sigma, [sigmoid(r) for r in raw]
 
-    # ------------------------------------------------------------------ training hooks
     def resize(self, params, res: int) -> dict:
         """Resample both grids to ``res`` vertices per axis (coarse to fine)."""
         old = self.resolution_of(params)
@@ -204,13 +158,9 @@ class GridField:
         C = 3 * self.cfg.color_coeffs
         with dr.suspend_grad():
             dens = interpolate(dr.detach(params["density"]), 1, corners)[0]
-            col = interpolate(dr.detach(params["color"]), C, corners)
-            col_flat = dr.zeros(Float, dr.width(pts[0]) * C)
-            idx = dr.arange(UInt32, dr.width(pts[0]))
-            for c in range(C):
-                dr.scatter(col_flat, col[c], idx * C + c)
-            dr.eval(dens, col_flat)
-        return {"density": dens, "color": col_flat}
+            col = dr.ravel(ArrayXf(interpolate(dr.detach(params["color"]), C, corners)))   # vertex-major
+            dr.eval(dens, col)
+        return {"density": dens, "color": col}
 
     def schedule(self, step: int, params) -> dict | None:
         """New parameters when the coarse-to-fine schedule changes the resolution at ``step``."""
@@ -218,28 +168,25 @@ class GridField:
         return self.resize(params, res) if res != self.resolution_of(params) else None
 
     def regularizer(self, params, seed: UInt32) -> Float | None:
+        """Total variation: per axis and channel, the mean squared difference of neighbouring vertices (at
+        ``tv_samples`` random ones), weighted and summed; None when both weights are 0."""
         cfg = self.cfg
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
         res = self.resolution_of(params)
         n = res ** self.dim
-        if cfg.tv_samples and cfg.tv_samples < n:
-            v = hash_u32(hash_u32(seed ^ 0x2545F491) ^ dr.arange(UInt32, cfg.tv_samples)) % n
-        else:
-            v = dr.arange(UInt32, n)
+        v = (hash_u32(hash_u32(seed ^ 0x2545F491) ^ dr.arange(UInt32, cfg.tv_samples)) % n
+             if 0 < cfg.tv_samples < n else dr.arange(UInt32, n))
         total = Float(0.0)
         for name, weight, C in (("density", cfg.tv_weight, 1), ("color", cfg.tv_color_weight, 3 * cfg.color_coeffs)):
             if weight <= 0:
                 continue
-            tv, stride = Float(0.0), 1
-            for a in range(self.dim):
-                coord = (v // stride) % res
-                ok = coord < res - 1
+            tv = Float(0.0)
+            for stride in (res ** a for a in range(self.dim)):   # neighbours along each axis
+                ok = (v // stride) % res < res - 1
                 nb = dr.select(ok, v + stride, v)
                 for c in range(C):
                     diff = dr.gather(Float, params[name], nb * C + c) - dr.gather(Float, params[name], v * C + c)
                     tv += dr.mean(dr.select(ok, diff * diff, 0.0))
-                stride *= res
-            scale = cfg.density_scale ** 2 if name == "density" else 1.0
-            total = total + weight * scale * tv
+            total = total + weight * (cfg.density_scale ** 2 if name == "density" else 1.0) * tv
         return total

@@ -1,18 +1,10 @@
 """Multi-resolution hash-grid field (Mueller et al. 2022, instant-ngp) for 2D and 3D.
 
-Positions, mapped to ``[0, 1]^D`` over ``[-bound, bound]^D``, are encoded by a
-multi-resolution hash encoding (:mod:`.hashenc`, the same function and table layout
-as ``drjit.nn.HashGridEncoding``, which ``encoding='drjit'`` uses instead): ``n_levels`` grids from ``base_resolution`` to
-``max_resolution`` vertices per axis (geometric progression), ``features_per_level``
-features per vertex, dense where a level fits in ``2^log2_hashmap_size`` entries and
-hashed beyond. A one-hidden-layer density network maps the features to the raw
-density and ``geo_features`` features; a colour network maps those (plus the encoded
-view direction when ``view_dependent``) to a sigmoid RGB. Outside the bound the
-density is 0.
-
-The encoding is a sum of gathers (traceable); the networks run as cooperative vectors
-(then the whole field runs inside the fused march) or tensor-mode GEMMs
-(:mod:`.layers`). Twin: :mod:`mitnerf.reference.fields.hashgrid`.
+Positions, mapped to ``[0, 1]^D`` over ``[-bound, bound]^D``, are encoded by a hash encoding
+(:mod:`.hashenc`, or ``drjit.nn.HashGridEncoding``: the same function and table layout). A
+one-hidden-layer density network maps the features to the raw density and ``geo_features``
+features; a colour network maps those (plus the encoded view direction when ``view_dependent``)
+to a sigmoid RGB. Outside the bound the density is 0. Twin: :mod:`mitnerf.reference.fields.hashgrid`.
 """
 
 from __future__ import annotations
@@ -25,7 +17,7 @@ import numpy as np
 from drjit.auto.ad import Float
 
 from ..errors import CheckpointError, ConfigError
-from .base import check_config, density_activation, sigmoid
+from .base import Field, check_config, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size
 from .hashenc import hash_encode, hash_layout
 from .layers import LinearLayers, torch_default_init
@@ -73,40 +65,34 @@ class HashGridConfig:
         check_config(self, n_levels=(1, 32), features_per_level=(1, 8), log2_hashmap_size=(4, 24),
                      base_resolution=(2, 1 << 16), max_resolution=(self.base_resolution, 1 << 20), hidden=(1, 512),
                      geo_features=(1, 128), dir_L=(0, 12))
-        if self.mode not in ("coopvec", "tensor"):
-            raise ConfigError(f"mode must be coopvec or tensor, got {self.mode!r}")
-        if self.encoding not in ("mitnerf", "drjit"):
-            raise ConfigError(f"encoding must be mitnerf or drjit, got {self.encoding!r}")
+        for name, choices in (("mode", ("coopvec", "tensor")), ("encoding", ("mitnerf", "drjit"))):
+            if getattr(self, name) not in choices:
+                raise ConfigError(f"{name} must be {' or '.join(choices)}, got {getattr(self, name)!r}")
 
     @property
     def per_level_scale(self) -> float:
-        if self.n_levels == 1:
-            return 1.0
-        return float(np.exp(np.log(self.max_resolution / self.base_resolution) / (self.n_levels - 1)))
+        ratio = self.max_resolution / self.base_resolution
+        return 1.0 if self.n_levels == 1 else float(np.exp(np.log(ratio) / (self.n_levels - 1)))
 
 
-class HashGridField:
+class HashGridField(Field):
     """See the module docstring."""
 
     def __init__(self, cfg: HashGridConfig):
-        self.cfg = cfg
-        self.dim = cfg.dim
+        super().__init__(cfg)
         self.traceable = cfg.mode == "coopvec"
         self.layout = hash_layout(cfg.dim, cfg.n_levels, cfg.features_per_level, 2 ** cfg.log2_hashmap_size,
                                   cfg.base_resolution, cfg.per_level_scale)
-        self.encoding = None
-        if cfg.encoding == "drjit":
-            self.encoding = nn.HashGridEncoding(
-                Float, cfg.dim, n_levels=cfg.n_levels, n_features_per_level=cfg.features_per_level,
-                hashmap_size=2 ** cfg.log2_hashmap_size, base_resolution=cfg.base_resolution,
-                per_level_scale=cfg.per_level_scale, init_scale=cfg.init_scale, rng=dr.rng(seed=0))
+        self.encoding = None if cfg.encoding != "drjit" else nn.HashGridEncoding(
+            Float, cfg.dim, n_levels=cfg.n_levels, n_features_per_level=cfg.features_per_level,
+            hashmap_size=2 ** cfg.log2_hashmap_size, base_resolution=cfg.base_resolution,
+            per_level_scale=cfg.per_level_scale, init_scale=cfg.init_scale, rng=dr.rng(seed=0))
         n_feat = cfg.n_levels * cfg.features_per_level
         dir_in = encoded_size(cfg.dim, cfg.dir_L, direction=True) if cfg.view_dependent else 0
         self.shapes = [("sigma_net.0", cfg.hidden, n_feat), ("sigma_net.1", 1 + cfg.geo_features, cfg.hidden),
                        ("color_net.0", cfg.hidden, cfg.geo_features + dir_in), ("color_net.1", 3, cfg.hidden)]
         self.layers = LinearLayers(self.shapes, cfg.mode)
 
-    # ------------------------------------------------------------------ storage
     @property
     def n_table(self) -> int:
         return self.layout.n_params
@@ -115,42 +101,30 @@ class HashGridField:
         rng = np.random.default_rng(seed)
         arrays = torch_default_init(self.shapes, rng)
         arrays["sigma_net.1.bias"][0] += np.float32(self.cfg.density_bias)
-        s = self.cfg.init_scale
-        arrays["table"] = rng.uniform(-s, s, self.n_table).astype(np.float32)
+        arrays["table"] = rng.uniform(-self.cfg.init_scale, self.cfg.init_scale, self.n_table).astype(np.float32)
         return arrays
-
-    def init_params(self, seed: int = 0) -> dict:
-        return self.from_numpy(self.init_numpy(seed))
 
     def from_numpy(self, arrays: dict) -> dict:
         table = np.asarray(arrays["table"], np.float32).ravel()
         if table.size != self.n_table:
             raise CheckpointError(f"hash table has {table.size} entries, this configuration needs {self.n_table}; "
-                             "the checkpoint was saved with another configuration")
+                                  "the checkpoint was saved with another configuration")
         return {"table": Float(table), **self.layers.from_numpy(arrays)}
 
     def to_numpy(self, params: dict) -> dict:
         return {"table": np.asarray(params["table"]), **self.layers.to_numpy(params)}
 
-    # ------------------------------------------------------------------ evaluation
-    def _features(self, params, x):
-        b = self.cfg.bound
-        inside = None
-        unit = []
-        for xi in x:
-            ok = dr.abs(xi) <= b
-            inside = ok if inside is None else inside & ok
-            unit.append(dr.clip((xi * (1.0 / b) + 1.0) * 0.5, 0.0, 1.0))
-        if self.encoding is None:
-            return hash_encode(params["table"], unit, self.layout), inside
-        self.encoding.data = params["table"]          # structure apart from storage: bind this call's table
-        return list(self.encoding(unit)), inside
-
     def _sigma_and_geo(self, params, x):
-        L = self.layers
-        feat, inside = self._features(params, x)
+        L, b = self.layers, self.cfg.bound
+        unit = [dr.clip((xi * (1.0 / b) + 1.0) * 0.5, 0.0, 1.0) for xi in x]
+        if self.encoding is None:
+            feat = hash_encode(params["table"], unit, self.layout)
+        else:
+            self.encoding.data = params["table"]          # structure apart from storage: bind this call's table
+            feat = list(self.encoding(unit))
         h = L.linear(params, "sigma_net.0", L.start(feat), relu=True)
         out = L.linear(params, "sigma_net.1", h, relu=False)
+        inside = dr.all([dr.abs(xi) <= b for xi in x])
         sigma = dr.select(inside, density_activation(L.split(out, 1)[0], self.cfg.density_activation), 0.0)
         return sigma, out
 
@@ -160,8 +134,6 @@ class HashGridField:
     def query(self, params: dict, x, d):
         L = self.layers
         sigma, out = self._sigma_and_geo(params, list(x))
-        geo = L.split(out)[1:]
         enc_d = direction_encoding(list(d), self.cfg.dir_L) if self.cfg.view_dependent else []
-        h = L.linear(params, "color_net.0", L.start(geo + enc_d), relu=True)
-        rgb = [sigmoid(v) for v in L.split(L.linear(params, "color_net.1", h, relu=False), 3)]
-        return sigma, rgb
+        h = L.linear(params, "color_net.0", L.start(L.split(out)[1:] + enc_d), relu=True)   # geo features + direction
+        return sigma, [sigmoid(v) for v in L.split(L.linear(params, "color_net.1", h, relu=False), 3)]

@@ -1,22 +1,10 @@
-"""The NeRF MLP as a native kernel: a ``dr.CustomOp`` whose matrix products run in C.
+"""The NeRF MLP of :mod:`.mlp` as a ``dr.CustomOp`` whose forward and backward run in C
+(``native_mlp.c``: tiled, threaded, vectorised for ``-march=native``); Dr.Jit keeps the rest.
 
-Dr.Jit stays the engine (the parameters, the encodings, the volume integral, the
-autodiff graph, Adam); only the MLP of :mod:`.mlp` is delegated. ``native_mlp.c`` pushes
-tiles of samples through every layer and back while they stay in the caches, with
-register-blocked matrix products written with GCC's vector extensions (AVX-512 or AVX2,
-whatever ``-march=native`` finds), two POSIX threads that block rather than spin between
-calls, and per-thread weight gradients reduced once. The backward pass recomputes the forward per tile instead of storing
-activations.
-
-The source is compiled on first use (``cc -O3 -march=native -pthread``) into
-``$MITNERF_CACHE/native/`` under a name that hashes the source, the compiler and the
-CPU's flags, so machines sharing a cache never load each other's builds.
-:func:`library` returns ``None`` when no compiler works, and the MLP then runs on
-Dr.Jit's own GEMMs (``mode='tensor'``): the pure path stays the fallback.
-
+:func:`library` compiles it on first use; where no compiler works, the MLP runs on Dr.Jit alone.
 Data crosses as zero-copy NumPy views of evaluated Dr.Jit arrays: the encoded inputs
-sample-major (``dr.ravel``), the weights in their canonical order (every ``nn.Linear``
-weight ``[out, in]`` then its bias), the outputs raw (activations stay in Dr.Jit).
+sample-major, the weights in canonical order (each ``nn.Linear`` weight ``[out, in]`` then its
+bias), the outputs raw (activations stay in Dr.Jit).
 """
 
 from __future__ import annotations
@@ -40,33 +28,26 @@ SOURCE = Path(__file__).with_name("native_mlp.c")
 _F = ctypes.POINTER(ctypes.c_float)
 
 
-def _cpu_flags() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("flags"):
-                return line
-    except OSError:
-        pass
-    return ""
-
-
 @functools.lru_cache(maxsize=None)
 def library():
-    """The compiled kernel (``ctypes.CDLL``), or None where it cannot be built."""
+    """The compiled kernel (``ctypes.CDLL``), or None where it cannot be built. It is cached in
+    ``$MITNERF_CACHE/native/`` under a name that hashes the source, the compiler and the CPU's
+    flags, so machines sharing a cache never load each other's builds."""
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if cc is None or not SOURCE.exists():
         return None
     try:
-        version = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30).stdout
-    except (OSError, subprocess.SubprocessError):
-        return None
-    key = hashlib.sha1(SOURCE.read_bytes() + version.encode() + _cpu_flags().encode()).hexdigest()[:16]
+        flags = next((line for line in Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("flags")), "")
+    except OSError:
+        flags = ""
 
     def build(tmp: Path) -> None:
         subprocess.run([cc, "-O3", "-march=native", "-pthread", "-shared", "-fPIC", str(SOURCE), "-o",
                         str(tmp / "libmlp.so")], check=True, capture_output=True, timeout=300)
 
     try:
+        version = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30).stdout
+        key = hashlib.sha1(SOURCE.read_bytes() + version.encode() + flags.encode()).hexdigest()[:16]
         lib = ctypes.CDLL(str(cache_entry(f"native/mlp-{key}", build) / "libmlp.so"))
     except (OSError, subprocess.SubprocessError):
         return None
@@ -116,8 +97,7 @@ class NativeMLP(dr.CustomOp):
         M = dr.width(X[0])
         self.M, self.need = M, need
         self.keep = (weights, dr.ravel(ArrayXf(X)), dr.ravel(ArrayXf(Dd)) if Dd else None)   # alive until backward
-        self.W, self.X = _host(self.keep[0]), _host(self.keep[1])
-        self.Dd = _host(self.keep[2]) if Dd else None
+        self.W, self.X, self.Dd = (None if a is None else _host(a) for a in self.keep)
         self.dims = (*arch, len(X), len(Dd))
         sigma, rgb = np.empty(M, np.float32), np.empty(3 * M, np.float32)
         with _cores_to_the_kernel():
@@ -129,15 +109,14 @@ class NativeMLP(dr.CustomOp):
 
     def backward(self):
         d_sigma, d_rgb = self.grad_out()
-        M = self.M
         ds = np.ascontiguousarray(_host(Float(d_sigma)), dtype=np.float32)
         dc = np.ascontiguousarray(_host(dr.ravel(ArrayXf([Float(c) for c in d_rgb]))), dtype=np.float32)
         grad = np.empty(self.W.size, np.float32)
         C, Cd = self.dims[3], self.dims[4]
-        dX = np.empty(M * C, np.float32) if self.need[0] else None
-        dD = np.empty(M * Cd, np.float32) if self.need[1] and Cd else None
+        dX = np.empty(self.M * C, np.float32) if self.need[0] else None
+        dD = np.empty(self.M * Cd, np.float32) if self.need[1] and Cd else None
         with _cores_to_the_kernel():
-            library().mlp_backward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), M, _ptr(ds), _ptr(dc),
+            library().mlp_backward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), self.M, _ptr(ds), _ptr(dc),
                                    _ptr(grad), _ptr(dX), _ptr(dD))
         self.set_grad_in("weights", Float(grad))
         if dX is not None:

@@ -1,41 +1,22 @@
-"""pixelNeRF in 2D (Yu et al. 2021): a field conditioned on a few input views.
+"""pixelNeRF in 2D (Yu et al. 2021): a field that reads the scene from ``V`` input views
+(the *context*) and is trained across scenes, so that a few views of a new scene render it.
 
-A radiance field that is not fitted to one scene: it reads the scene from ``V`` input
-views (the *context*) and is trained across many scenes, so that at test time a
-handful of views of a new scene is enough to render it from elsewhere.
+**Encoder.** A 1D CNN over each input view (an ``H``-pixel RGB line): one convolution per
+entry of ``dilations`` (zero padding, ReLU; receptive field ``1 + (kernel - 1) * sum(dilations)``
+pixels), each an im2col gather and a dense layer. A pixel's feature concatenates every layer's
+output (as NeRF2D), after the raw RGB when ``include_rgb``.
 
-**Encoder.** A 1D CNN over each input view (an ``H``-pixel RGB line): ``len(dilations)``
-convolutions of ``channels`` filters, kernel ``kernel``, zero padding, ReLU, with growing
-dilation (receptive field ``1 + (kernel - 1) * sum(dilations)`` pixels). The feature of a
-pixel is the concatenation of every layer's output (as NeRF2D concatenated its layers),
-preceded by the raw RGB when ``include_rgb``. Each convolution is an *im2col* gather
-(:func:`im2col`: ``[C, V*H] -> [C*K, V*H]``) followed by a dense layer
-(:func:`mitnerf.fields.dense.dense`), so plain AD differentiates it. ``encoder='frozen'``
-keeps the random He-initialised weights fixed (NeRF2D's frozen random encoder; the
-features of a view are computed once); ``encoder='trained'`` learns them.
+**Network.** A query point is projected into every input view (:func:`project`, as
+:meth:`mitnerf.data.cameras.Cameras.project`) and the feature map interpolated there
+(:func:`lookup`; zero features and validity 0 behind a camera or outside its image). Per view
+``v`` the MLP input is ``[feature, valid, gamma(R_v^T x / bound), harmonics(R_v^T d)]``: point and
+direction in the camera's axes (the field is equivariant to turning scene and cameras together about the origin).
+``view_layers`` ReLU layers give per-view codes, pooled over the views (``pool``); ``head_layers``
+ReLU layers then a linear layer give the raw density and colour. Samples and views are ordered
+``sample * V + view``.
 
-**Projection and lookup.** A query point ``x`` is projected into every input view
-(:func:`project`; the convention of :meth:`mitnerf.data.cameras.Cameras.project`:
-pixel centre ``i`` at row ``i + 0.5``) and the feature map is read with *linear*
-interpolation between pixel centres (:func:`lookup`, edge pixels clamped). A point
-behind a camera or outside its image gets zero features and a validity flag of 0.
-
-**Network.** Per input view ``v``, the MLP input is ``[feature, valid, gamma(R_v^T x /
-bound), harmonics(R_v^T d)]``: the point and the query direction in the camera's axes
-(rotated about the world origin, so the field is equivariant to turning scene and
-cameras together). ``view_layers`` ReLU layers of ``width`` map it to a per-view code;
-codes are pooled over the views, and ``head_layers`` ReLU layers then a linear layer give
-the raw density and colour (density activation, sigmoid). ``pool='mean'`` is pixelNeRF's
-average; the default ``pool='mean_var'`` also passes the variance over views (as IBRNet
-does), which makes agreement between views, the cue for a surface, an explicit input
-(``pool`` selects either). All layers run in tensor mode on feature-major ``[channels, n]`` tensors, so
-the field is not ``traceable``: :func:`mitnerf.render.volume.volume_render` evaluates it
-on every sample first. Samples and views are ordered ``sample * V + view``, so the
-average is a ``dr.block_sum`` over blocks of ``V``.
-
-The field object is *structure plus context*: ``field.with_context(ctx)`` returns a
-field conditioned on the views in ``ctx`` (:func:`make_context`); the trainable
-``params`` dict stays with the caller, as for every field (:mod:`.base`).
+``field.with_context(ctx)`` (:func:`make_context`) conditions the field on input views; the
+trainable ``params`` stay with the caller, as for every field.
 """
 
 from __future__ import annotations
@@ -48,9 +29,9 @@ import numpy as np
 from drjit.auto.ad import Bool, Float, Int32, TensorXf, UInt32
 
 from ..errors import MitnerfError
-from .base import DENSITY_ACTIVATIONS, density_activation, sigmoid
-from .dense import dense, row, stack_rows
+from .base import DENSITY_ACTIVATIONS, Field, density_activation, sigmoid
 from .encoding import angle_harmonics, positional_encoding
+from .layers import concat_rows, dense, row, stack_rows, torch_default_init
 
 ENCODERS = ("frozen", "trained")
 POOLS = ("mean", "mean_var")
@@ -98,23 +79,14 @@ class PixelNeRFConfig:
         self.dilations = tuple(int(d) for d in self.dilations)
         if self.dim != 2:
             raise MitnerfError("pixelNeRF is implemented for 2D scenes (1D views) only")
-        if self.encoder not in ENCODERS:
-            raise MitnerfError(f"encoder must be one of {ENCODERS}, got {self.encoder!r}")
+        for name, choices in (("encoder", ENCODERS), ("density_activation", DENSITY_ACTIVATIONS), ("pool", POOLS)):
+            if getattr(self, name) not in choices:
+                raise MitnerfError(f"{name} must be one of {choices}, got {getattr(self, name)!r}")
         if self.kernel % 2 != 1:
             raise MitnerfError(f"the convolution kernel must be odd (same-size output), got {self.kernel}")
-        if self.density_activation not in DENSITY_ACTIVATIONS:
-            raise MitnerfError(f"density_activation must be one of {DENSITY_ACTIVATIONS}, "
-                               f"got {self.density_activation!r}")
-        if self.pool not in POOLS:
-            raise MitnerfError(f"pool must be one of {POOLS}, got {self.pool!r}")
         if self.view_layers < 1 or self.head_layers < 0:
             raise MitnerfError(f"pixelNeRF needs view_layers >= 1 and head_layers >= 0, "
                                f"got view_layers={self.view_layers}, head_layers={self.head_layers}")
-
-    @property
-    def encoder_key(self) -> tuple:
-        """What the frozen encoder's features depend on (cached features are keyed by it)."""
-        return (self.encoder_seed, self.channels, self.dilations, self.kernel, self.include_rgb)
 
     @property
     def feature_size(self) -> int:
@@ -129,23 +101,14 @@ class PixelNeRFConfig:
 
 def encoder_shapes(cfg: PixelNeRFConfig) -> list[tuple[str, int, int]]:
     """``(name, out, in)`` of each convolution as a dense layer (``in = C_in * kernel``)."""
-    shapes, c_in = [], 3
-    for i in range(len(cfg.dilations)):
-        shapes.append((f"enc.{i}", cfg.channels, c_in * cfg.kernel))
-        c_in = cfg.channels
-    return shapes
+    return [(f"enc.{i}", cfg.channels, (cfg.channels if i else 3) * cfg.kernel) for i in range(len(cfg.dilations))]
 
 
 def mlp_shapes(cfg: PixelNeRFConfig) -> list[tuple[str, int, int]]:
-    shapes, fan_in = [], cfg.input_size
-    for i in range(cfg.view_layers):
-        shapes.append((f"view.{i}", cfg.width, fan_in))
-        fan_in = cfg.width
     pooled = cfg.width * (2 if cfg.pool == "mean_var" else 1)
-    for i in range(cfg.head_layers):
-        shapes.append((f"head.{i}", cfg.width, pooled if i == 0 else cfg.width))
-    shapes.append(("out", 4, cfg.width if cfg.head_layers else pooled))
-    return shapes
+    return ([(f"view.{i}", cfg.width, cfg.width if i else cfg.input_size) for i in range(cfg.view_layers)]
+            + [(f"head.{i}", cfg.width, cfg.width if i else pooled) for i in range(cfg.head_layers)]
+            + [("out", 4, cfg.width if cfg.head_layers else pooled)])
 
 
 def encoder_weights(cfg: PixelNeRFConfig, seed: int) -> dict[str, np.ndarray]:
@@ -160,17 +123,11 @@ def encoder_weights(cfg: PixelNeRFConfig, seed: int) -> dict[str, np.ndarray]:
 
 def mlp_weights(cfg: PixelNeRFConfig, seed: int) -> dict[str, np.ndarray]:
     """PyTorch's ``nn.Linear`` default, U(+-1/sqrt(in)) for weights and biases."""
-    rng = np.random.default_rng(seed)
-    out = {}
-    for name, o, i in mlp_shapes(cfg):
-        k = 1.0 / np.sqrt(i)
-        out[f"{name}.weight"] = rng.uniform(-k, k, (o, i)).astype(np.float32)
-        out[f"{name}.bias"] = rng.uniform(-k, k, o).astype(np.float32)
+    out = torch_default_init(mlp_shapes(cfg), np.random.default_rng(seed))
     out["out.bias"][0] += np.float32(cfg.density_bias)
     return out
 
 
-# ---------------------------------------------------------------------- the encoder
 def im2col(X: TensorXf, H: int, K: int, dilation: int) -> TensorXf:
     """Columns of a 1D convolution: ``X [C, V*H]`` (V views of H pixels, view-major) ->
     ``[C*K, V*H]`` with row ``c*K + k`` = channel ``c`` shifted by ``(k - K//2) * dilation``
@@ -202,25 +159,14 @@ def encode(cfg: PixelNeRFConfig, weights: dict, images: TensorXf, H: int) -> Ten
     return concat_rows(parts)
 
 
-def concat_rows(parts: list) -> TensorXf:
-    """Stack feature-major tensors ``[C_i, n]`` into ``[sum C_i, n]``."""
-    if len(parts) == 1:
-        return parts[0]
-    return TensorXf(dr.concat([p.array for p in parts]), (sum(p.shape[0] for p in parts), parts[0].shape[1]))
-
-
-# ---------------------------------------------------------------------- projection and lookup
 CAM_FLOATS = 6
 """Per input view: origin (x, y), forward (x, y), up (x, y)."""
 
 
 def project(x: list, cams: Float, view: UInt32, H: int, focal: float):
-    """Project points ``x`` (2 arrays ``[m]``) into input ``view`` ``[m]`` of ``cams``.
-
-    Returns ``(row, forward, valid)``: the continuous image row (pixel centre ``i`` at
-    ``i + 0.5``), the distance along the camera axis, and whether the point is in
-    front of the camera and inside the image (``0 <= row <= H``).
-    """
+    """Project points ``x`` (2 arrays ``[m]``) into input ``view`` ``[m]`` of ``cams``: ``(row, forward, valid)``,
+    the continuous image row (pixel centre ``i`` at ``i + 0.5``), the distance along the camera axis, and
+    whether the point is in front of the camera and inside the image (``0 <= row <= H``)."""
     g = lambda k: dr.gather(Float, cams, view * CAM_FLOATS + k)
     rx, ry = x[0] - g(0), x[1] - g(1)
     fwd = rx * g(2) + ry * g(3)
@@ -238,22 +184,16 @@ def lookup(features: TensorXf, view: UInt32, r: Float, valid, H: int) -> TensorX
     C, VH = features.shape
     m = dr.width(r)
     p = r - 0.5                                                  # pixel-centre coordinates
-    i0 = dr.floor(p)
-    w = p - i0
-    i0 = Int32(i0)
-    a0 = view * H + UInt32(dr.clip(i0, 0, H - 1))
-    a1 = view * H + UInt32(dr.clip(i0 + 1, 0, H - 1))
+    i0 = Int32(dr.floor(p))
     idx = dr.arange(UInt32, C * m)
     c, j = idx // m, idx % m
     ok = dr.gather(Bool, valid, j)
-    base = c * VH
-    f0 = dr.gather(Float, features.array, base + dr.gather(UInt32, a0, j), ok)
-    f1 = dr.gather(Float, features.array, base + dr.gather(UInt32, a1, j), ok)
-    wj = dr.gather(Float, w, j)
-    return TensorXf(f0 + wj * (f1 - f0), (C, m))
+    a0, a1 = (view * H + UInt32(dr.clip(i, 0, H - 1)) for i in (i0, i0 + 1))   # the pixels on either side
+    f0, f1 = (dr.gather(Float, features.array, c * VH + dr.gather(UInt32, a, j), ok) for a in (a0, a1))
+    w = dr.gather(Float, p - dr.floor(p), j)
+    return TensorXf(f0 + w * (f1 - f0), (C, m))
 
 
-# ---------------------------------------------------------------------- the context
 @dataclass
 class Context:
     """The input views a field is conditioned on (Dr.Jit arrays)."""
@@ -269,30 +209,24 @@ class Context:
     """Precomputed pixel features ``[feature_size, V*H]`` (frozen encoder), else None."""
 
 
-def camera_array(poses: np.ndarray) -> np.ndarray:
-    """``[V, 3, 3]`` 2D camera-to-world poses -> ``[V * 6]`` float32 (origin, forward, up)."""
-    poses = np.asarray(poses)
-    return np.concatenate([poses[:, :2, 2], poses[:, :2, 0], poses[:, :2, 1]], 1).astype(np.float32).ravel()
-
-
 def make_context(images: np.ndarray, poses: np.ndarray, focal: float, features: np.ndarray | None = None) -> Context:
-    """A context from numpy views ``images [V, H, 3]`` (or ``[V, H, 1, 3]``) and ``poses [V, 3, 3]``."""
+    """A context from numpy views ``images [V, H, 3]`` (or ``[V, H, 1, 3]``) and 2D poses ``[V, 3, 3]``."""
+    poses = np.asarray(poses)
     images = np.asarray(images, np.float32).reshape(len(poses), -1, 3)
     V, H = images.shape[:2]
     img = TensorXf(np.ascontiguousarray(images.transpose(2, 0, 1).reshape(3, V * H)))
+    cams = np.concatenate([poses[:, :2, 2], poses[:, :2, 0], poses[:, :2, 1]], 1)    # origin, forward, up
     feats = None if features is None else TensorXf(np.ascontiguousarray(features, dtype=np.float32))
-    return Context(img, Float(camera_array(poses)), V, H, float(focal), feats)
+    return Context(img, Float(cams.astype(np.float32).ravel()), V, H, float(focal), feats)
 
 
-# ---------------------------------------------------------------------- the field
-class PixelNeRFField:
+class PixelNeRFField(Field):
     """The conditioned field; see the module docstring."""
 
     traceable = False
-    dim = 2
 
     def __init__(self, cfg: PixelNeRFConfig, context: Context | None = None):
-        self.cfg = cfg
+        super().__init__(cfg)
         self.context = context
         frozen = encoder_weights(cfg, cfg.encoder_seed)
         self.frozen = {k: TensorXf(v) for k, v in frozen.items()} if cfg.encoder == "frozen" else None
@@ -303,15 +237,9 @@ class PixelNeRFField:
         other.context = context
         return other
 
-    # ------------------------------------------------------------------ storage
     def init_numpy(self, seed: int = 0) -> dict:
-        arrays = mlp_weights(self.cfg, seed)
-        if self.cfg.encoder == "trained":
-            arrays.update(encoder_weights(self.cfg, self.cfg.encoder_seed))
-        return arrays
-
-    def init_params(self, seed: int = 0) -> dict:
-        return self.from_numpy(self.init_numpy(seed))
+        trained = encoder_weights(self.cfg, self.cfg.encoder_seed) if self.cfg.encoder == "trained" else {}
+        return {**mlp_weights(self.cfg, seed), **trained}
 
     def from_numpy(self, arrays: dict) -> dict:
         return {k: TensorXf(np.asarray(v, np.float32)) for k, v in arrays.items()}
@@ -319,25 +247,20 @@ class PixelNeRFField:
     def to_numpy(self, params: dict) -> dict:
         return {k: np.array(v, dtype=np.float32) for k, v in params.items()}
 
-    # ------------------------------------------------------------------ evaluation
     def features(self, params: dict, context: Context | None = None) -> TensorXf:
         """Pixel features of the context views ``[feature_size, V*H]``."""
         ctx = context or self.context
         if ctx.features is not None:
             return ctx.features
-        weights = self.frozen if self.frozen is not None else params
-        return encode(self.cfg, weights, ctx.images, ctx.height)
+        return encode(self.cfg, self.frozen if self.frozen is not None else params, ctx.images, ctx.height)
 
     def features_numpy(self, images: np.ndarray) -> np.ndarray:
         """Frozen-encoder features of numpy views ``[V, H, 3]`` -> ``[feature_size, V*H]``
         (compute once per view; put them in :func:`make_context`)."""
         if self.frozen is None:
-                raise MitnerfError("features_numpy precomputes frozen features; this field trains its encoder "
+            raise MitnerfError("features_numpy precomputes frozen features; this field trains its encoder "
                                "(use encoder='frozen', or let query() encode the views)")
-        images = np.asarray(images, np.float32)
-        V = images.shape[0]
-        images = images.reshape(V, -1, 3)
-        ctx = make_context(images, np.tile(np.eye(3), (V, 1, 1)), 1.0)
+        ctx = make_context(images, np.tile(np.eye(3), (len(images), 1, 1)), 1.0)
         with dr.suspend_grad():
             return np.array(encode(self.cfg, self.frozen, ctx.images, ctx.height), dtype=np.float32)
 
@@ -345,25 +268,22 @@ class PixelNeRFField:
         """Density at ``x`` seen from outside: along ``-x / |x|`` (the query direction is an
         input of every view's MLP, as in pixelNeRF, so density needs one)."""
         inv = dr.rsqrt(dr.maximum(x[0] * x[0] + x[1] * x[1], 1e-12))
-        sigma, _ = self.query(params, x, [-x[0] * inv, -x[1] * inv])
-        return sigma
+        return self.query(params, x, [-x[0] * inv, -x[1] * inv])[0]
 
     def query(self, params: dict, x, d):
         """Density ``[n]`` and colour (3 x ``[n]``) at points ``x`` seen along ``d``."""
         ctx = self.context
         if ctx is None:
-                raise MitnerfError("this pixelNeRF field has no input views; call field.with_context(make_context(...))")
+            raise MitnerfError("this pixelNeRF field has no input views; call field.with_context(make_context(...))")
         cfg, V, H = self.cfg, ctx.n_views, ctx.height
         n = dr.width(x[0])
-        feats = self.features(params, ctx)                        # [F, V*H]
         idx = dr.arange(UInt32, n * V)
         s, view = idx // V, idx % V                               # sample-major, view-minor
         xs = [dr.gather(Float, xi, s) for xi in x]
         ds = [dr.gather(Float, di, s) for di in d]
         r, _, valid = project(xs, ctx.cams, view, H, ctx.focal)
-        F = lookup(feats, view, r, valid, H)                      # [F, n*V]
-        g = lambda k: dr.gather(Float, ctx.cams, view * CAM_FLOATS + k)
-        fx, fy, ux, uy = g(2), g(3), g(4), g(5)
+        F = lookup(self.features(params, ctx), view, r, valid, H)   # [F, n*V]
+        fx, fy, ux, uy = (dr.gather(Float, ctx.cams, view * CAM_FLOATS + k) for k in range(2, 6))
         inv_b = 1.0 / cfg.bound
         q = [(xs[0] * fx + xs[1] * fy) * inv_b, (xs[0] * ux + xs[1] * uy) * inv_b]   # point in camera axes
         dq = [ds[0] * fx + ds[1] * fy, ds[0] * ux + ds[1] * uy]                      # direction in camera axes
@@ -371,14 +291,11 @@ class PixelNeRFField:
         h = concat_rows([F, stack_rows(rows)])                    # [input_size, n*V]
         for i in range(cfg.view_layers):
             h = dense(params[f"view.{i}.weight"], params[f"view.{i}.bias"], h, True)
-        mean = dr.block_sum(h.array, V) * (1.0 / V)                # [width * n]: mean over views
+        pooled = [dr.block_sum(h.array, V) * (1.0 / V)]          # [width * n]: mean over views (and variance)
         if cfg.pool == "mean_var":
-            var = dr.maximum(dr.block_sum(dr.square(h.array), V) * (1.0 / V) - dr.square(mean), 0.0)
-            h = TensorXf(dr.concat([mean, var]), (2 * cfg.width, n))
-        else:
-            h = TensorXf(mean, (cfg.width, n))
+            pooled.append(dr.maximum(dr.block_sum(dr.square(h.array), V) * (1.0 / V) - dr.square(pooled[0]), 0.0))
+        h = TensorXf(dr.concat(pooled), (len(pooled) * cfg.width, n))
         for i in range(cfg.head_layers):
             h = dense(params[f"head.{i}.weight"], params[f"head.{i}.bias"], h, True)
         out = dense(params["out.weight"], params["out.bias"], h, False)     # [4, n]
-        sigma = density_activation(row(out, 0), cfg.density_activation)
-        return sigma, [sigmoid(row(out, k)) for k in (1, 2, 3)]
+        return density_activation(row(out, 0), cfg.density_activation), [sigmoid(row(out, k)) for k in (1, 2, 3)]
