@@ -1,20 +1,10 @@
 """Safe outputs: mitnerf never deletes or replaces what it did not write.
 
-Rules for a folder a command writes (:class:`Output`, checked *before* any work starts):
-
-* it does not exist, or is empty: written;
-* it carries mitnerf's marker (``.mitnerf``) from an earlier output of the same kind:
-  replaced as a whole (it is ours);
-* anything else (a user's files, another kind of output) is refused with one line that
-  names ``--overwrite``; with ``overwrite=True`` mitnerf writes its own files into it
-  and leaves every other file alone;
-* a plain file is never replaced, not even with ``overwrite``.
-
-Writes are atomic: a folder is built in a temporary sibling and renamed into place
-(:meth:`Output.staged`), a file is written to a temporary sibling and renamed
-(:func:`atomic_write_bytes`). Cache entries (:func:`cache_entry`) are filled the same way
-and are safe when two processes fill the same entry at once: the first rename wins and
-the other process uses it.
+A folder a command writes (:class:`Output`, checked before any work starts) is written when missing or
+empty, replaced as a whole when it carries mitnerf's marker (``.mitnerf``) of the same kind, and else
+refused with one line that names ``--overwrite`` (with it, mitnerf writes its own files into it and
+leaves every other file alone). A plain file is never replaced, not even with ``overwrite``.
+Writes are atomic: built in a temporary sibling and renamed into place.
 """
 
 from __future__ import annotations
@@ -71,17 +61,12 @@ def read_marker(path: Path) -> dict | None:
 
 def _first_entry(path: Path) -> str | None:
     with os.scandir(path) as it:
-        for entry in it:
-            return entry.name
-    return None
+        return next((entry.name for entry in it), None)
 
 
 class Output:
-    """A folder that a command of ``kind`` (``dataset``, ``fit``, ``video``, ...) will write.
-
-    Construct it before doing any work: the constructor applies the rules of the module
-    docstring and raises :class:`~mitnerf.errors.OutputError` when the path is refused.
-    """
+    """A folder that a command of ``kind`` (``dataset``, ``fit``, ``video``, ...) will write. Construct it
+    before any work: it applies the module's rules and raises :class:`~mitnerf.errors.OutputError`."""
 
     def __init__(self, path: str | Path, kind: str, overwrite: bool = False):
         self.path, self.kind, self.overwrite = Path(path), kind, overwrite
@@ -149,15 +134,10 @@ def _move_files_into(src: Path, dst: Path) -> None:
             os.replace(Path(root) / name, target)
 
 
-def cache_root() -> Path:
-    """``$MITNERF_CACHE``, default ``~/.cache/mitnerf``."""
-    return Path(os.environ.get("MITNERF_CACHE", Path.home() / ".cache" / "mitnerf"))
-
-
 def cache_entry(name: str, build: Callable[[Path], None]) -> Path:
-    """The cache folder ``name``, built by ``build(tmp_folder)`` if missing. Concurrent
-    builders each build privately; the first rename wins and the others use its entry."""
-    final = cache_root() / name
+    """The cache folder ``name`` under ``$MITNERF_CACHE`` (default ``~/.cache/mitnerf``), built by
+    ``build(tmp_folder)`` if missing; of concurrent builders the first rename wins."""
+    final = Path(os.environ.get("MITNERF_CACHE", Path.home() / ".cache" / "mitnerf")) / name
     if (final / MARKER).exists():
         return final
     final.parent.mkdir(parents=True, exist_ok=True)
@@ -187,26 +167,18 @@ def digest(*items: bytes | str) -> str:
 
 
 def available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (Linux: MemAvailable, which counts the
-    reclaimable page cache, within a container's cgroup limit; elsewhere the free pages), or
-    None when unknown."""
+    """Bytes available to a new allocation (Linux: MemAvailable, within a cgroup limit; elsewhere the
+    free pages), or None when unknown."""
     avail = None
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    avail = int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
+    with contextlib.suppress(OSError, ValueError, IndexError), open("/proc/meminfo") as f:
+        avail = next((int(line.split()[1]) * 1024 for line in f if line.startswith("MemAvailable:")), None)
     if avail is None:
         try:
             avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             return None
-    try:
+    with contextlib.suppress(OSError, ValueError):
         limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
         if limit != "max":
             avail = min(avail, int(limit) - int(Path("/sys/fs/cgroup/memory.current").read_text()))
-    except (OSError, ValueError):
-        pass
     return max(avail, 0)

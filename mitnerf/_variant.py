@@ -1,8 +1,5 @@
-"""Choosing Mitsuba's variant, and the LLVM guard. Called by entry points, never on import.
-
-Dr.Jit 1.5 emits ``llvm.maximum`` for ``dr.maximum``; LLVM 15 cannot compile it and
-aborts the process, so the LLVM backend is refused on LLVM < 16 before any kernel is built.
-"""
+"""Choosing Mitsuba's variant, and the LLVM guard (called by entry points, never on import): Dr.Jit 1.5
+emits ``llvm.maximum``, which LLVM 15 cannot compile (it aborts), so the LLVM backend needs LLVM >= 16."""
 
 from __future__ import annotations
 
@@ -21,10 +18,9 @@ def check_llvm() -> tuple[int, int, int]:
     version = tuple(dr.detail.llvm_version())
     if version[0] < MIN_LLVM:
         found = "no LLVM" if version[0] < 0 else "LLVM %d.%d.%d" % version
-        raise EnvironmentProblem(
-            f"mitnerf needs LLVM >= {MIN_LLVM} for Dr.Jit's LLVM backend but found {found}: "
-            "run `apt-get install -y libllvm19` (or `make setup`), or set "
-            "DRJIT_LIBLLVM_PATH to a libLLVM.so of version >= 16.")
+        raise EnvironmentProblem(f"mitnerf needs LLVM >= {MIN_LLVM} for Dr.Jit's LLVM backend but found {found}: "
+                                 "run `apt-get install -y libllvm19` (or `make setup`), or set DRJIT_LIBLLVM_PATH "
+                                 "to a libLLVM.so of version >= 16.")
     return version
 
 

@@ -1,8 +1,5 @@
-"""User errors, one type per kind. Every message names the problem *and* the fix.
-
-Entry points (the CLI, the examples) print them as one line and exit with status 2.
-Library code raises them; it never calls ``sys.exit``.
-"""
+"""User errors, one type per kind; every message names the problem *and* the fix. Entry points print
+them as one line and exit with status 2; library code raises them and never calls ``sys.exit``."""
 
 import math
 

@@ -1,10 +1,6 @@
-"""The one results file: every measured figure, with the command and machine that made it.
-
-Benchmarks and experiment runs call :func:`record_result`; documents are generated from
-the file (``python benchmarks/report.py``: ``RESULTS.md``, ``REPRODUCTION.md`` and the
-README's results table), so a figure is written in exactly one place. The file is
-``$MITNERF_RESULTS``, else ``results.json`` at the top of the source tree.
-"""
+"""The one results file (``$MITNERF_RESULTS``, else ``results.json`` at the top of the source tree): every
+measured figure with the command and machine that made it, written by :func:`record_result`; documents are
+generated from it (``python benchmarks/report.py``), so a figure is written in exactly one place."""
 
 from __future__ import annotations
 

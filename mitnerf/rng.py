@@ -1,11 +1,5 @@
-"""Counter-based random numbers shared by both backends (no torch, no state).
-
-Every random choice of training (the batch of pixels, the jitter of every sample) is a
-hash of integers (a seed, a ray, a sample index), so the Dr.Jit kernels and their numpy
-twins draw the same numbers without sharing a generator.
-
-:func:`hash_u32` works on numpy ``uint32`` arrays and on Dr.Jit ``UInt32`` alike.
-"""
+"""Counter-based random numbers shared by both backends (no torch, no state): every random choice (batch
+pixels, sample jitter) is a hash of integers, so Dr.Jit kernels and their numpy twins draw the same numbers."""
 
 from __future__ import annotations
 
@@ -13,19 +7,16 @@ import numpy as np
 
 
 def hash_u32(x):
-    """Wellons' lowbias32 integer hash (bijective on 32-bit integers)."""
+    """Wellons' lowbias32 integer hash (bijective on 32-bit integers), of numpy ``uint32`` arrays
+    or Dr.Jit ``UInt32`` alike."""
     if isinstance(x, (np.ndarray, np.generic)):
-        with np.errstate(over="ignore"):
-            return _lowbias32(x.astype(np.uint32))
-    return _lowbias32(x)
-
-
-def _lowbias32(x):
-    x = x ^ (x >> 16)
-    x = x * 0x7FEB352D
-    x = x ^ (x >> 15)
-    x = x * 0x846CA68B
-    return x ^ (x >> 16)
+        x = x.astype(np.uint32)
+    with np.errstate(over="ignore"):
+        x = x ^ (x >> 16)
+        x = x * 0x7FEB352D
+        x = x ^ (x >> 15)
+        x = x * 0x846CA68B
+        return x ^ (x >> 16)
 
 
 def uniform(seed, ray, i):

@@ -1,10 +1,5 @@
-"""Copy weights between a Dr.Jit model and its PyTorch twin.
-
-The two backends initialise differently by design (Dr.Jit's ``nn.Linear`` and torch's
-``nn.Linear`` draw from different ranges and generators), so never rely on matching
-seeds: copy. Both sides share one canonical form, a dict of numpy arrays named as
-``torch.nn.Module.state_dict`` names them (``coarse.trunk.0.weight`` ...).
-"""
+"""Copy weights between a Dr.Jit model and its PyTorch twin (their initialisations differ by design)
+through the canonical form: numpy arrays named as ``state_dict`` names them (``coarse.trunk.0.weight`` ...)."""
 
 from __future__ import annotations
 

@@ -5,14 +5,12 @@ density :math:`\sigma_i` and colour :math:`c_i` (Max 1995; NeRF):
 
 .. math::
 
-    \alpha_i = 1 - e^{-\sigma_i \delta_i},\quad T_{i+1} = T_i (1 - \alpha_i),\quad
-    w_i = T_i \alpha_i,
+    \alpha_i = 1 - e^{-\sigma_i \delta_i},\quad T_{i+1} = T_i (1 - \alpha_i),\quad w_i = T_i \alpha_i,
 
     C = \sum_i w_i c_i + T_N c_{bg},\qquad D = \sum_i w_i t_i,\qquad A = \sum_i w_i = 1 - T_N.
 
-**Primal** (:class:`VolumeIntegral`): one symbolic loop marches all rays together,
-evaluating the field at one sample per ray per step and accumulating ``C, D, A``;
-nothing per sample is kept (weights are written only when asked for).
+**Primal** (:class:`VolumeIntegral`): one symbolic loop marches all rays together, one sample
+per ray per step, accumulating ``C, D, A``; nothing per sample is kept (weights only when asked).
 
 **Adjoint** (radiative backpropagation, as Mitsuba's ``prb`` integrators): with output
 gradients :math:`\bar C, \bar D, \bar A` and optionally :math:`\bar w_i`, define the
@@ -33,10 +31,9 @@ pass replays the same march once, re-evaluates the field at each sample under
 \langle c_i, \partial L/\partial c_i\rangle` into the field's parameters. Memory is
 O(rays), not O(rays x samples).
 
-The field enters through a *source* ``(params, x, d, sample_index) -> (sigma, rgb)``:
-:class:`FieldSource` calls a traceable field inside the loop; :class:`GatheredSource`
-reads samples that a non-traceable field (tensor-mode MLP) evaluated beforehand, so
-the same operation serves both. ``mitnerf.render.autodiff`` is the plain-AD check.
+The field enters through a *source* ``(params, x, d, sample_index) -> (sigma, rgb)``: a
+traceable field called inside the loop, or :func:`gathered_source`, which reads samples that a
+non-traceable field (tensor-mode MLP) evaluated beforehand.
 """
 
 from __future__ import annotations
@@ -63,23 +60,10 @@ class RenderOutput:
     """:math:`w_i`, ray-major ``[n_rays * N]``, when requested."""
 
 
-class FieldSource:
-    """Evaluate a traceable field at each sample."""
-
-    def __init__(self, field):
-        self.field = field
-
-    def __call__(self, params, x, d, index):
-        return self.field.query(params, x, d)
-
-
-class GatheredSource:
+def gathered_source(params, x, d, index):
     """Read pre-evaluated samples: ``params = {'sigma': [n*N], 'rgb': [n*N*3]}``."""
-
-    def __call__(self, params, x, d, index):
-        sigma = dr.gather(Float, params["sigma"], index, mode=dr.ReduceMode.Permute)
-        rgb = [dr.gather(Float, params["rgb"], index * 3 + k, mode=dr.ReduceMode.Permute) for k in range(3)]
-        return sigma, rgb
+    sigma = dr.gather(Float, params["sigma"], index, mode=dr.ReduceMode.Permute)
+    return sigma, [dr.gather(Float, params["rgb"], index * 3 + k, mode=dr.ReduceMode.Permute) for k in range(3)]
 
 
 def _dot3(a, b):
@@ -92,9 +76,8 @@ class VolumeIntegral(dr.CustomOp):
 
     def eval(self, params, origins, directions, near, far, source, sampler, background,
              want_weights=False, input_grads=False):
-        self.args = (params, origins, directions, near, far, source, sampler, background, input_grads)
-        n = dr.width(origins[0])
-        N = sampler.n
+        self.args = (params, origins, directions, near, far, source, sampler, input_grads)
+        n, N = dr.width(origins[0]), sampler.n
         ray = dr.arange(UInt32, n)
         near_r, far_r = per_sample(near, ray), per_sample(far, ray)
         weights = dr.zeros(Float, n * N) if want_weights else None
@@ -107,18 +90,15 @@ class VolumeIntegral(dr.CustomOp):
             w = T * alpha
             if want_weights:
                 dr.scatter(weights, w, ray * N + i)
-            C = [c + w * ci for c, ci in zip(C, rgb)]
-            return i + 1, T * (1.0 - alpha), C, D + w * t
+            return i + 1, T * (1.0 - alpha), [c + w * ci for c, ci in zip(C, rgb)], D + w * t
 
-        zero = dr.zeros(Float, n)
-        state = (UInt32(0), dr.full(Float, 1.0, n), [zero, Float(zero), Float(zero)], Float(zero))
+        state = (UInt32(0), dr.full(Float, 1.0, n), [dr.zeros(Float, n) for _ in range(3)], dr.zeros(Float, n))
         _, T, C, D = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral")
-        C = [c + T * b for c, b in zip(C, background)]
-        self.out = (C, D, 1.0 - T, weights)
+        self.out = ([c + T * b for c, b in zip(C, background)], D, 1.0 - T, weights)
         return self.out
 
     def backward(self):
-        params, origins, directions, near, far, source, sampler, background, input_grads = self.args
+        params, origins, directions, near, far, source, sampler, input_grads = self.args
         dC, dD, dA, dW = self.grad_out()
         C, D, A, W = self.out
         n, N = dr.width(origins[0]), sampler.n
@@ -156,10 +136,8 @@ class VolumeIntegral(dr.CustomOp):
                     gd = [a + t * b + dr.grad(di) for a, b, di in zip(gd, gx, dirs)]
             return i + 1, T_next, R, go, gd
 
-        zero = dr.zeros(Float, n)
-        dim = len(origins)
-        state = (UInt32(0), dr.full(Float, 1.0, n), R, [Float(zero) for _ in range(dim)],
-                 [Float(zero) for _ in range(dim)])
+        zeros = [dr.zeros(Float, n) for _ in range(2 * len(origins))]
+        state = (UInt32(0), dr.full(Float, 1.0, n), R, zeros[:len(origins)], zeros[len(origins):])
         _, _, _, go, gd = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral_adjoint")
         self.set_grad_in("params", {k: dr.grad(v) for k, v in P.items()})
         if input_grads:

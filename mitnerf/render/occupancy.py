@@ -1,20 +1,13 @@
-"""Empty-space skipping: an occupancy grid and a sampler that only samples occupied space.
+"""Empty-space skipping: an occupancy grid (as in instant-ngp / nerfacc) and a sampler of occupied space.
 
-**The grid** (as in instant-ngp / nerfacc) covers ``[-bound, bound]^D`` with ``R^D`` cells.
-Every ``update_every`` training steps each cell's density is measured at a jittered
-point inside it; a running value keeps ``max(decay * previous, measured)``, and a cell
-is occupied while that value exceeds ``min(threshold, mean)``. Before ``warmup`` steps,
-and for a grid never updated, every cell counts as occupied.
+The grid covers ``[-bound, bound]^D`` with ``resolution^D`` cells. An update measures each cell's density
+at a jittered point in it and keeps ``value = max(decay * value, measured)``; a cell is occupied while
+``value > min(threshold, mean(value))`` (every cell, before the first update).
 
-**The sampler** splits ``[near, far]`` of a ray into ``M = march_bins`` equal bins and
-looks each bin's centre up in the grid. A ray with ``K`` occupied bins gets its ``N``
-samples from them: with ``stride = ceil(K / N)``, every ``stride``-th occupied bin
-starts a group, one jittered sample is placed in that bin and stands for the group's
-``stride * dt`` of occupied length. Unused slots get ``delta = 0``. Early on (all
-occupied) this is stratified sampling with ``N`` samples; once the grid is sharp, the
-samples crowd the surfaces. Dropped samples are taken as empty; the integral is exact
-for the samples kept. The number of samples stays fixed, so the step can be frozen.
-Twin: :mod:`mitnerf.reference.render.occupancy`.
+The sampler looks the centres of ``M = march_bins`` equal bins of ``[near, far]`` up in the grid. Of a
+ray's ``K`` occupied bins, every ``stride = ceil(K / N)``-th starts a group: one jittered sample in that
+bin stands for the group's ``stride * dt`` (the last group: the bins left). Unused slots get ``delta = 0``;
+the count stays ``N``, so the step can be frozen. Twin: :mod:`mitnerf.reference.render.occupancy`.
 """
 
 from __future__ import annotations
@@ -82,12 +75,10 @@ class OccupancyGrid:
     def cell_centres(self, jitter: Float | None = None) -> list:
         res = self.cfg.resolution
         idx = dr.arange(UInt32, res ** self.dim)
-        pts, stride = [], 1
+        pts = []
         for a in range(self.dim):
-            c = Float((idx // stride) % res)
             off = 0.5 if jitter is None else uniform(UInt32(jitter), idx, UInt32(a))
-            pts.append(((c + off) * (2.0 / res) - 1.0) * self.bound)
-            stride *= res
+            pts.append(((Float((idx // res ** a) % res) + off) * (2.0 / res) - 1.0) * self.bound)
         return pts
 
     def update(self, density_fn, step: int, seed: int) -> None:
@@ -100,9 +91,6 @@ class OccupancyGrid:
             level = dr.minimum(dr.mean(self.value), self.cfg.threshold)
             self.occupied = dr.select(self.value > level, 1.0, 0.0)
             dr.eval(self.value, self.occupied)
-
-    def fraction(self) -> float:
-        return float(dr.mean(self.occupied)[0])
 
     def state(self) -> dict:
         return {"value": np.asarray(self.value), "occupied": np.asarray(self.occupied)}

@@ -1,16 +1,12 @@
-"""A NeRF model: fields plus how to render them (coarse pass, optional fine pass).
+"""A NeRF model: fields plus how to render them (a coarse pass, an optional fine pass, as NeRF).
 
-``Model.render`` samples each ray with :class:`~.samplers.Stratified` (``n_coarse``),
-integrates, and when ``n_fine > 0`` draws ``n_fine`` more samples from the coarse
-weights (:func:`~.samplers.importance_sample`) and integrates the fine field over all
-``n_coarse + n_fine`` samples, as NeRF does. Parameters of all fields live in one flat
-dict with prefixed keys (``coarse.mlp``, ``fine.trunk.0.weight``, ...), which is what
-an optimizer holds. Twin: :mod:`mitnerf.reference.render.pipeline`.
+Parameters of all fields live in one flat dict with prefixed keys (``coarse.mlp``, ``fine.trunk.0.weight``,
+...), which is what an optimizer holds. Twin: :mod:`mitnerf.reference.render.pipeline`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import drjit as dr
 from drjit.auto.ad import Float, UInt32
@@ -39,8 +35,7 @@ class RenderConfig:
     occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
     """Empty-space skipping: an occupancy grid places the coarse samples (``n_coarse``)."""
     pixel_jitter: bool = False
-    """Train on rays spread over each pixel's footprint (the ground truth is the footprint's
-    average), not only through its centre."""
+    """Train on rays spread over each pixel's footprint (its ground truth: the footprint's average)."""
     eval_spp: int = 1
     """Rays averaged per pixel when evaluating (stratified over the footprint: 2D along the
     view, 3D on a square grid); 1: the pixel centre."""
@@ -92,7 +87,7 @@ class Model:
         return self.from_numpy(self.init_numpy(seed))
 
     def to_numpy(self, params: dict) -> dict:
-        return {f"{g}.{k}": v for g, f in self.fields.items() for k, v in f.to_numpy(split_params(params, g)).items()}
+        return join_params(**{g: f.to_numpy(split_params(params, g)) for g, f in self.fields.items()})
 
     def from_numpy(self, arrays: dict) -> dict:
         return join_params(**{g: f.from_numpy(split_params(arrays, g)) for g, f in self.fields.items()})
@@ -104,20 +99,13 @@ class Model:
     def schedule(self, step: int, params: dict) -> dict | None:
         """Parameters that a field's training schedule replaces before ``step`` (e.g. a
         grid's coarse-to-fine resize), with prefixed keys; None when nothing changes."""
-        new = {}
-        for g, f in self.fields.items():
-            if hasattr(f, "schedule"):
-                changed = f.schedule(step, split_params(params, g))
-                if changed:
-                    new.update({f"{g}.{k}": v for k, v in changed.items()})
-        return new or None
+        return join_params(**{g: f.schedule(step, split_params(params, g)) or {} for g, f in self.fields.items()
+                              if hasattr(f, "schedule")}) or None
 
     def regularizer(self, params: dict, seed: UInt32):
         """Sum of the fields' regularisers (e.g. total variation), or None."""
-        terms = [f.regularizer(split_params(params, g), seed) for g, f in self.fields.items()
-                 if hasattr(f, "regularizer")]
-        terms = [t for t in terms if t is not None]
-        return sum(terms[1:], terms[0]) if terms else None
+        return sum_terms(f.regularizer(split_params(params, g), seed) for g, f in self.fields.items()
+                         if hasattr(f, "regularizer"))
 
     def final_field(self):
         """The field whose output is the model's answer (fine if present)."""
@@ -127,15 +115,6 @@ class Model:
         g = self.final_field()
         return self.fields[g].density(split_params(params, g), x)
 
-    def coarse_sampler(self, origins: list, directions: list, near, far, seed: UInt32, training: bool,
-                       occupied: Float | None):
-        cfg = self.render_cfg
-        if occupied is None or not cfg.occupancy.enabled:
-            return Stratified(cfg.n_coarse, seed, jitter=training)
-        sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins, self.fields["coarse"].cfg.bound,
-                                  cfg.occupancy.resolution, seed, jitter=training)
-        return sampler.build(origins, directions, near, far)
-
     def render(self, params: dict, origins: list, directions: list, near, far, seed: UInt32,
                training: bool, weights: bool = False, input_grads: bool = False,
                occupied: Float | None = None) -> dict:
@@ -144,24 +123,34 @@ class Model:
         cfg = self.render_cfg
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
-        coarse = self.coarse_sampler(origins, directions, near, far, seed, training, occupied)
-        pc = split_params(params, "coarse")
-        out_c = volume_render(self.fields["coarse"], pc, origins, directions, near, far, coarse, cfg.background,
-                              method=cfg.method, weights=weights or cfg.n_fine > 0, input_grads=input_grads)
-        if cfg.n_fine <= 0:
-            result = {"coarse": out_c, "fine": None}
-            if weights:
-                result["samples"] = coarse.points(n, near, far)
-            return result
-        t, delta = coarse.points(n, near, far)
-        fine = importance_sample(t, delta, out_c.weights, n, cfg.n_coarse, cfg.n_fine, seed, training)
-        g = "fine" if "fine" in self.fields else "coarse"
-        out_f = volume_render(self.fields[g], split_params(params, g), origins, directions, near, far, fine,
-                              cfg.background, method=cfg.method, weights=weights, input_grads=input_grads)
-        result = {"coarse": out_c if weights else RenderOutput(out_c.rgb, out_c.depth, out_c.opacity), "fine": out_f}
+        if occupied is None or not cfg.occupancy.enabled:
+            sampler = Stratified(cfg.n_coarse, seed, jitter=training)
+        else:
+            sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins,
+                                      self.fields["coarse"].cfg.bound, cfg.occupancy.resolution, seed,
+                                      jitter=training).build(origins, directions, near, far)
+        kw = dict(method=cfg.method, input_grads=input_grads)
+        result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
+                                          near, far, sampler, cfg.background, weights=weights or cfg.n_fine > 0, **kw),
+                  "fine": None}
+        if cfg.n_fine > 0:
+            t, delta = sampler.points(n, near, far)
+            sampler = importance_sample(t, delta, result["coarse"].weights, n, cfg.n_coarse, cfg.n_fine, seed,
+                                        training)
+            g = self.final_field()
+            result["fine"] = volume_render(self.fields[g], split_params(params, g), origins, directions, near, far,
+                                           sampler, cfg.background, weights=weights, **kw)
+            if not weights:
+                result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
-            result["samples"] = fine.points(n, near, far)
+            result["samples"] = sampler.points(n, near, far)
         return result
+
+
+def sum_terms(terms):
+    """The sum of the terms that are not None, or None."""
+    terms = [t for t in terms if t is not None]
+    return sum(terms[1:], terms[0]) if terms else None
 
 
 def final(outputs: dict) -> RenderOutput:

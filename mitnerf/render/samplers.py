@@ -1,18 +1,9 @@
 """Where along each ray the field is sampled (Dr.Jit; twin: ``mitnerf.reference.render.samplers``).
 
-A sampler gives every ray ``N`` quadrature intervals: a sample distance ``t_i`` and the
-length ``delta_i`` of the interval it stands for, sorted along the ray in ``[near, far)``.
-Contiguous samplers use NeRF's quadrature, ``delta_i = t_{i+1} - t_i`` with ``t_N = far``;
-the occupancy sampler (:mod:`.occupancy`) leaves gaps where space is empty. Samplers
-answer ``interval(ray, i, near, far)`` for one ray step at a time (the fused integral
-calls it inside its loop and again in the replay, storing nothing) and ``points()`` for
-all samples at once.
-
-* :class:`Stratified`: ``t_i = near + (i + u_i) (far - near) / N``, ``u_i = 1/2`` or jittered
-  by a counter-based hash of (seed, ray, i): reproducible, and identical in the twin.
-* :class:`Explicit`: given distances, e.g. from :func:`importance_sample` (NeRF's
-  hierarchical sampling: inverse-CDF draws from coarse weights, merged with the
-  coarse samples).
+A sampler gives every ray ``N`` intervals ``(t_i, delta_i)``, sorted in ``[near, far)``; contiguous ones
+have ``delta_i = t_{i+1} - t_i`` with ``t_N = far``. ``interval(ray, i, near, far)`` answers one step (the
+fused integral calls it in its loop and its replay), ``points()`` all samples at once. Jitter is the
+counter-based hash ``uniform(seed, ray, i)`` of :mod:`mitnerf.rng`, identical in the twin.
 """
 
 from __future__ import annotations
@@ -25,8 +16,22 @@ from drjit.auto.ad import Float, UInt32
 from ..rng import uniform
 
 
+class _Sampler:
+    """Contiguous intervals from ``t(ray, i, near, far)`` (``t_n = far``)."""
+
+    def interval(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> tuple[Float, Float]:
+        t = self.t(ray, i, near, far)
+        return t, self.t(ray, i + 1, near, far) - t
+
+    def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
+        """``t`` and ``delta`` of all samples, ray-major, each ``[n_rays * n]``."""
+        idx = dr.arange(UInt32, n_rays * self.n)
+        ray, i = idx // self.n, idx % self.n
+        return self.interval(ray, i, per_sample(near, ray), per_sample(far, ray))
+
+
 @dataclass
-class Stratified:
+class Stratified(_Sampler):
     """One sample per equal bin of [near, far], at the bin centre or jittered in it."""
 
     n: int
@@ -41,17 +46,9 @@ class Stratified:
         t = near + (Float(i) + u) * ((far - near) * (1.0 / self.n))
         return dr.select(i >= self.n, far, t)
 
-    def interval(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> tuple[Float, Float]:
-        t = self.t(ray, i, near, far)
-        return t, self.t(ray, i + 1, near, far) - t
-
-    def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
-        """``t`` and ``delta`` of all samples, ray-major, each ``[n_rays * n]``."""
-        return flat_points(self, n_rays, near, far)
-
 
 @dataclass
-class Explicit:
+class Explicit(_Sampler):
     """Given sorted distances per ray, ``t_flat [n_rays * n]`` (ray-major), and either given
     interval lengths ``delta_flat`` or contiguous ones (``t_{i+1} - t_i``, ``t_n = far``)."""
 
@@ -65,20 +62,9 @@ class Explicit:
         return dr.select(inside, t, far)
 
     def interval(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> tuple[Float, Float]:
-        t = self.t(ray, i, near, far)
-        if self.delta_flat is not None:
-            return t, dr.gather(Float, self.delta_flat, ray * self.n + i)
-        return t, self.t(ray, i + 1, near, far) - t
-
-    def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
-        return flat_points(self, n_rays, near, far)
-
-
-def flat_points(sampler, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
-    """``t`` and ``delta`` of every sample of ``n_rays`` rays (ray-major)."""
-    idx = dr.arange(UInt32, n_rays * sampler.n)
-    ray, i = idx // sampler.n, idx % sampler.n
-    return sampler.interval(ray, i, per_sample(near, ray), per_sample(far, ray))
+        if self.delta_flat is None:
+            return super().interval(ray, i, near, far)
+        return self.t(ray, i, near, far), dr.gather(Float, self.delta_flat, ray * self.n + i)
 
 
 def per_sample(value: Float, ray: UInt32) -> Float:
@@ -102,10 +88,9 @@ def count_below(sorted_flat: Float, block: int, base: UInt32, query: Float, stri
 
 def importance_sample(t: Float, delta: Float, weights: Float, n_rays: int, n_coarse: int, n_fine: int,
                       seed: UInt32, jitter: bool) -> Explicit:
-    """NeRF's hierarchical sampling: ``n_fine`` draws from the piecewise-constant density
-    of the coarse ``weights`` on the coarse intervals ``[t, t + delta)``, merged with the
-    coarse samples (sorted, ``n_coarse + n_fine`` per ray; the fine pass integrates them
-    contiguously). Inputs ``[n_rays * n_coarse]``, detached."""
+    """NeRF's hierarchical sampling: ``n_fine`` draws from the piecewise-constant density of the coarse
+    ``weights`` on ``[t, t + delta)``, merged with the coarse samples (sorted, ``n_coarse + n_fine`` per ray,
+    contiguous). Inputs ``[n_rays * n_coarse]``, detached."""
     Nc, Nf = n_coarse, n_fine
     w = dr.detach(weights) + 1e-5                     # never a zero-probability ray
     cdf = dr.block_prefix_sum(w, Nc, exclusive=False)

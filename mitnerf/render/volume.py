@@ -1,55 +1,54 @@
-"""``volume_render``: one entry point from a field and rays to per-ray colour, depth, opacity.
+"""``volume_render``: from a field and rays to per-ray colour, depth, opacity.
 
-``method='replay'`` uses the custom operation of :mod:`.integral` (the default);
-``method='autodiff'`` the plain-AD integral of :mod:`.autodiff`. Traceable fields run
-inside the march; others (tensor-mode MLPs) are evaluated on all samples first and
-read back by the same operation.
+``method='replay'`` (default) uses the custom operation of :mod:`.integral`; ``'autodiff'`` is the plain-AD
+check :func:`integrate_autodiff` (also for forward mode), which stores every per-sample intermediate.
+Non-traceable fields (tensor-mode MLPs) are evaluated on all samples first and read back by the same operation.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import drjit as dr
 from drjit.auto.ad import Array3f, Float, UInt32
 
-from .autodiff import integrate_autodiff
-from .integral import FieldSource, GatheredSource, RenderOutput, VolumeIntegral
+from .integral import RenderOutput, VolumeIntegral, gathered_source
 
 METHODS = ("replay", "autodiff")
 
 
-def sample_points(origins: list, directions: list, t: Float, N: int):
-    """Positions and directions of all samples (ray-major), each D arrays ``[n_rays * N]``."""
-    ray = dr.arange(UInt32, dr.width(t)) // N
-    d = [dr.gather(Float, di, ray) for di in directions]
-    x = [dr.gather(Float, oi, ray) + t * di for oi, di in zip(origins, d)]
-    return x, d
+def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, background) -> RenderOutput:
+    """Ray-major samples (``[n_rays * N]`` each) -> per-ray colour, depth, opacity, weights; block
+    prefix sums for the transmittance."""
+    sd = sigma * delta
+    T = dr.exp(-dr.block_prefix_sum(sd, N, exclusive=True))     # T_i
+    w = T * (1.0 - dr.exp(-sd))
+    T_end = dr.exp(-dr.block_sum(sd, N))
+    C = [dr.block_sum(w * c, N) + T_end * b for c, b in zip(rgb, background)]
+    return RenderOutput(C, dr.block_sum(w * t, N), 1.0 - T_end, w)
 
 
 def volume_render(field, params: dict, origins: list, directions: list, near, far, sampler,
                   background=(0.0, 0.0, 0.0), *, method: str = "replay", weights: bool = False,
                   input_grads: bool = False) -> RenderOutput:
-    """Render rays ``origins, directions`` (D arrays ``[n_rays]``; unit directions) through
-    ``field`` with ``params``; ``near, far``: per-ray arrays or scalars.
-
-    ``weights=True`` also returns the per-sample weights (differentiable: depth
-    supervision uses them). ``input_grads=True`` makes origins and directions
-    differentiable through a traceable field.
-    """
-    n = dr.width(origins[0])
+    """Render rays ``origins, directions`` (D arrays ``[n_rays]``; unit directions) through ``field``;
+    ``near, far``: per-ray arrays or scalars. ``weights=True`` also returns the (differentiable) per-sample
+    weights; ``input_grads=True`` makes origins and directions differentiable through a traceable field."""
     near, far = Float(near), Float(far)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if method == "replay" and field.traceable:
-        out = dr.custom(VolumeIntegral, params, list(origins), list(directions), near, far, FieldSource(field),
-                        sampler, tuple(background), weights, input_grads)
-        return RenderOutput(*out)
-    t, delta = sampler.points(n, near, far)
-    x, d = sample_points(origins, directions, t, sampler.n)
-    sigma, rgb = field.query(params, x, d)
-    if method == "autodiff":
-        out = integrate_autodiff(sigma, rgb, t, delta, sampler.n, background)
-        return out if weights else RenderOutput(out.rgb, out.depth, out.opacity)
-    samples = {"sigma": sigma, "rgb": dr.ravel(Array3f(rgb))}
-    out = dr.custom(VolumeIntegral, samples, list(origins), list(directions), near, far, GatheredSource(),
-                    sampler, tuple(background), weights, False)
+        def source(p, x, d, index):
+            return field.query(p, x, d)
+    else:
+        t, delta = sampler.points(dr.width(origins[0]), near, far)
+        ray = dr.arange(UInt32, dr.width(t)) // sampler.n                   # of every sample (ray-major)
+        d = [dr.gather(Float, di, ray) for di in directions]
+        sigma, rgb = field.query(params, [dr.gather(Float, oi, ray) + t * di for oi, di in zip(origins, d)], d)
+        if method == "autodiff":
+            out = integrate_autodiff(sigma, rgb, t, delta, sampler.n, background)
+            return out if weights else replace(out, weights=None)
+        params, source, input_grads = {"sigma": sigma, "rgb": dr.ravel(Array3f(rgb))}, gathered_source, False
+    out = dr.custom(VolumeIntegral, params, list(origins), list(directions), near, far, source, sampler,
+                    tuple(background), weights, input_grads)
     return RenderOutput(*out)

@@ -9,11 +9,8 @@ import torch
 
 def positional_encoding(x: torch.Tensor, L: int) -> torch.Tensor:
     """``x [n, D]`` -> ``[n, D (1 + 2 L)]``: x, then sin and cos of 2^k pi x per k."""
-    out = [x]
-    for k in range(L):
-        a = x * float(2.0 ** k * math.pi)
-        out += [torch.sin(a), torch.cos(a)]
-    return torch.cat(out, dim=-1)
+    a = [x * float(2.0 ** k * math.pi) for k in range(L)]
+    return torch.cat([x] + [f(ak) for ak in a for f in (torch.sin, torch.cos)], dim=-1)
 
 
 def angle_harmonics(d: torch.Tensor, L: int) -> torch.Tensor:

@@ -1,15 +1,16 @@
-"""Twin of :mod:`mitnerf.fields.grid`: the same vertices, corner order, weights and
-activations, in PyTorch (autograd supplies the gradients)."""
+"""Twin of :mod:`mitnerf.fields.grid`: the same vertices, corner order, weights and activations (autograd)."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import torch
 from torch import nn
 
 from ...fields.grid import GridConfig, view_basis
-from ...rng import hash_u32
-from .mlp import density_activation
+from ...rng import batch_indices
+from .mlp import TwinField, density_activation
 
 
 def corner_weights(x: torch.Tensor, bound: float, res: int):
@@ -22,15 +23,9 @@ def corner_weights(x: torch.Tensor, bound: float, res: int):
     inside = (x.abs() <= bound).all(dim=-1)
     corners = []
     for c in range(1 << D):
-        index = torch.zeros(x.shape[0], dtype=torch.long)
-        weight = torch.ones(x.shape[0], dtype=x.dtype)
-        stride = 1
-        for a in range(D):
-            bit = (c >> a) & 1
-            index = index + (i0[:, a] + bit) * stride
-            weight = weight * (frac[:, a] if bit else 1.0 - frac[:, a])
-            stride *= res
-        corners.append((index, weight))
+        bits = [(c >> a) & 1 for a in range(D)]
+        index = sum((i0[:, a] + bit) * res ** a for a, bit in enumerate(bits))
+        corners.append((index, math.prod(frac[:, a] if bit else 1.0 - frac[:, a] for a, bit in enumerate(bits))))
     return corners, inside
 
 
@@ -39,13 +34,9 @@ def interpolate(grid: torch.Tensor, corners) -> torch.Tensor:
     return sum(grid[index] * weight[:, None] for index, weight in corners)
 
 
-class GridField(nn.Module):
-    traceable = False
-
+class GridField(TwinField):
     def __init__(self, cfg: GridConfig):
-        super().__init__()
-        self.cfg = cfg
-        self.dim = cfg.dim
+        super().__init__(cfg)
         n = cfg.initial_resolution ** cfg.dim
         self.density_grid = nn.Parameter(torch.zeros(n, 1))
         self.color_grid = nn.Parameter(torch.zeros(n, 3 * cfg.color_coeffs))
@@ -57,8 +48,7 @@ class GridField(nn.Module):
     def load_numpy(self, arrays) -> None:
         d = torch.as_tensor(np.asarray(arrays["density"], np.float32).reshape(-1, 1))
         c = torch.as_tensor(np.asarray(arrays["color"], np.float32).reshape(d.shape[0], -1))
-        self.density_grid = nn.Parameter(d)
-        self.color_grid = nn.Parameter(c)
+        self.density_grid, self.color_grid = nn.Parameter(d), nn.Parameter(c)
 
     def to_numpy(self) -> dict:
         shape = (self.res,) * self.dim
@@ -88,37 +78,28 @@ class GridField(nn.Module):
     def query(self, x, d):
         corners, inside = corner_weights(x, self.cfg.bound, self.res)
         sigma = self._sigma(corners, inside)
-        K = self.cfg.color_coeffs
-        coef = interpolate(self.color_grid, corners)
-        if K == 1:
-            raw = coef
-        else:
+        K, raw = self.cfg.color_coeffs, interpolate(self.color_grid, corners)
+        if K > 1:
             basis = torch.stack(view_basis(list(d.unbind(1)), self.cfg.sh_degree), 1)    # [n, K]
-            raw = (coef.reshape(-1, 3, K) * basis[:, None, :]).sum(-1)
+            raw = (raw.reshape(-1, 3, K) * basis[:, None, :]).sum(-1)
         return sigma, torch.sigmoid(raw)
 
     def regularizer(self, seed: int):
-        cfg = self.cfg
+        cfg, res = self.cfg, self.res
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
-        res, n = self.res, self.res ** self.dim
-        if cfg.tv_samples and cfg.tv_samples < n:
-            with np.errstate(over="ignore"):
-                v = hash_u32(hash_u32(np.uint32(seed) ^ np.uint32(0x2545F491)) ^ np.arange(cfg.tv_samples, dtype=np.uint32))
-            v = torch.from_numpy((v % np.uint32(n)).astype(np.int64))
-        else:
-            v = torch.arange(n)
+        n = res ** self.dim
+        sampled = cfg.tv_samples and cfg.tv_samples < n
+        v = torch.from_numpy(batch_indices(seed ^ 0x2545F491, cfg.tv_samples, n)) if sampled else torch.arange(n)
         total = 0.0
         for grid, weight, scale in ((self.density_grid, cfg.tv_weight, cfg.density_scale ** 2),
                                     (self.color_grid, cfg.tv_color_weight, 1.0)):
             if weight <= 0:
                 continue
-            tv, stride = 0.0, 1
+            tv = 0.0
             for a in range(self.dim):
-                ok = ((v // stride) % res) < res - 1
-                nb = torch.where(ok, v + stride, v)
-                diff = grid[nb] - grid[v]
+                ok = ((v // res ** a) % res) < res - 1
+                diff = grid[torch.where(ok, v + res ** a, v)] - grid[v]
                 tv = tv + torch.where(ok[:, None], diff * diff, torch.zeros_like(diff)).mean(0).sum()
-                stride *= res
             total = total + weight * scale * tv
         return total

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import torch
 
 from ...fields.hashenc import PRIMES, HashLayout
@@ -9,15 +11,11 @@ from ...fields.hashenc import PRIMES, HashLayout
 
 def _entry(key: list, level: int, layout: HashLayout) -> torch.Tensor:
     r, n = layout.resolutions[level], layout.sizes[level]
-    mask = 0xFFFFFFFF
-    if layout.dense[level]:
-        index, stride = torch.zeros_like(key[0]), 1
-        for k in key:
-            index = (index + k * stride) & mask
-            stride *= r
-    else:
-        index = torch.zeros_like(key[0])
-        for d, k in enumerate(key):
+    mask, index = 0xFFFFFFFF, torch.zeros_like(key[0])
+    for d, k in enumerate(key):
+        if layout.dense[level]:
+            index = (index + k * r ** d) & mask
+        else:
             index = index ^ ((k * PRIMES[d]) & mask)     # uint32 multiply, in int64
     return layout.offsets[level] + index % n
 
@@ -33,12 +31,9 @@ def hash_encode(table: torch.Tensor, x: torch.Tensor, layout: HashLayout) -> tor
         p0 = p0.long()
         acc = 0.0
         for corner in range(1 << layout.dim):
-            key, weight = [], torch.ones_like(x[:, 0])
-            for d in range(layout.dim):
-                bit = (corner >> d) & 1
-                key.append(p0[:, d] + bit)
-                weight = weight * (w1[:, d] if bit else 1.0 - w1[:, d])
-            base = _entry(key, level, layout) * F
+            bits = [(corner >> d) & 1 for d in range(layout.dim)]
+            weight = math.prod(w1[:, d] if bit else 1.0 - w1[:, d] for d, bit in enumerate(bits))
+            base = _entry([p0[:, d] + bit for d, bit in enumerate(bits)], level, layout) * F
             acc = acc + torch.stack([table[base + k] for k in range(F)], 1) * weight[:, None]
         out.append(acc)
     return torch.cat(out, dim=1)

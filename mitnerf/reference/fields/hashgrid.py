@@ -2,35 +2,24 @@
 
 from __future__ import annotations
 
-import numpy as np
 import torch
 from torch import nn
 
 from ...fields.hashgrid import HashGridConfig, HashGridField as _DrJitField
 from .encoding import direction_encoding
 from .hashenc import hash_encode
-from .mlp import density_activation
+from .mlp import TwinField, density_activation
 
 
-class HashGridField(nn.Module):
-    traceable = False
-
+class HashGridField(TwinField):
     def __init__(self, cfg: HashGridConfig):
-        super().__init__()
-        self.cfg = cfg
-        self.dim = cfg.dim
+        super().__init__(cfg)
         twin = _DrJitField(cfg)                      # the layout and layer shapes
         self.layout = twin.layout
         self.table = nn.Parameter(torch.zeros(twin.n_table))
-        shapes = {name: (o, i) for name, o, i in twin.shapes}
-        self.sigma_net = nn.ModuleList(nn.Linear(shapes[f"sigma_net.{k}"][1], shapes[f"sigma_net.{k}"][0]) for k in range(2))
-        self.color_net = nn.ModuleList(nn.Linear(shapes[f"color_net.{k}"][1], shapes[f"color_net.{k}"][0]) for k in range(2))
-
-    def load_numpy(self, arrays) -> None:
-        self.load_state_dict({k: torch.as_tensor(np.asarray(v, np.float32)) for k, v in arrays.items()})
-
-    def to_numpy(self) -> dict:
-        return {k: v.detach().numpy().copy() for k, v in self.state_dict().items()}
+        shapes = {name: (i, o) for name, o, i in twin.shapes}        # nn.Linear(in, out)
+        self.sigma_net = nn.ModuleList(nn.Linear(*shapes[f"sigma_net.{k}"]) for k in range(2))
+        self.color_net = nn.ModuleList(nn.Linear(*shapes[f"color_net.{k}"]) for k in range(2))
 
     def _sigma_and_geo(self, x):
         b = self.cfg.bound

@@ -1,11 +1,9 @@
-"""Twin of :mod:`mitnerf.fields.mlp`: the vanilla NeRF field as a ``torch.nn.Module``.
-
-Parameter names equal the canonical Dr.Jit names (``trunk.0.weight`` ...), so
-``state_dict()`` and ``NeRFField.to_numpy()`` are interchangeable.
-"""
+"""Twin of :mod:`mitnerf.fields.mlp`: the vanilla NeRF field as a ``torch.nn.Module``, its parameters
+named as the canonical Dr.Jit names (``trunk.0.weight`` ...)."""
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -23,28 +21,32 @@ def density_activation(raw: torch.Tensor, kind: str) -> torch.Tensor:
     raise ValueError(f"unknown density activation {kind!r}")
 
 
-class NeRFField(nn.Module):
+class TwinField(nn.Module):
+    """What the field twins share: ``cfg``, ``dim``, and weights as numpy arrays under the canonical names."""
+
     traceable = False
 
-    def __init__(self, cfg: NeRFConfig):
+    def __init__(self, cfg):
         super().__init__()
-        self.cfg = cfg
-        self.dim = cfg.dim
-        shapes = {name: (o, i) for name, o, i in layer_shapes(cfg)}
-        self.trunk = nn.ModuleList(nn.Linear(shapes[f"trunk.{k}"][1], shapes[f"trunk.{k}"][0])
-                                   for k in range(cfg.depth))
-        self.sigma = nn.Linear(cfg.width, 1)
-        self.color = nn.ModuleList([nn.Linear(shapes["color.0"][1], shapes["color.0"][0]),
-                                    nn.Linear(shapes["color.1"][1], 3)])
+        self.cfg, self.dim = cfg, cfg.dim
+
+    def load_numpy(self, arrays) -> None:
+        self.load_state_dict({k: torch.as_tensor(np.asarray(v, np.float32)) for k, v in arrays.items()})
+
+    def to_numpy(self) -> dict:
+        return {k: v.detach().numpy().copy() for k, v in self.state_dict().items()}
+
+
+class NeRFField(TwinField):
+    def __init__(self, cfg: NeRFConfig):
+        super().__init__(cfg)
+        shapes = {name: (i, o) for name, o, i in layer_shapes(cfg)}        # nn.Linear(in, out)
+        self.trunk = nn.ModuleList(nn.Linear(*shapes[f"trunk.{k}"]) for k in range(cfg.depth))
+        self.sigma = nn.Linear(*shapes["sigma"])
+        self.color = nn.ModuleList(nn.Linear(*shapes[f"color.{k}"]) for k in range(2))
 
     def init_params(self, seed: int = 0) -> None:
         self.load_numpy(init_weights(self.cfg, seed))
-
-    def load_numpy(self, arrays) -> None:
-        self.load_state_dict({k: torch.as_tensor(v) for k, v in arrays.items()})
-
-    def to_numpy(self) -> dict:
-        return {k: v.detach().cpu().numpy().copy() for k, v in self.state_dict().items()}
 
     def _trunk(self, x: torch.Tensor) -> torch.Tensor:
         enc = positional_encoding(x / self.cfg.bound, self.cfg.pos_L)

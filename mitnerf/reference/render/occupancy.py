@@ -6,7 +6,8 @@ import numpy as np
 import torch
 
 from ...render.occupancy import OccupancyConfig
-from .samplers import Explicit, uniform
+from ...rng import uniform_np
+from .samplers import Explicit, column, offsets
 
 
 def cell_index(x: torch.Tensor, bound: float, res: int):
@@ -31,7 +32,7 @@ class OccupancyGrid:
         cols = []
         for a in range(self.dim):
             c = ((idx // res ** a) % res).astype(np.float32)
-            off = np.float32(0.5) if jitter is None else uniform(jitter, idx, np.full(idx.shape, a, np.uint32))
+            off = np.float32(0.5) if jitter is None else uniform_np(jitter, idx, np.full(idx.shape, a, np.uint32))
             cols.append(((c + off) * np.float32(2.0 / res) - np.float32(1.0)) * np.float32(self.bound))
         return torch.from_numpy(np.stack(cols, 1).astype(np.float32))
 
@@ -56,11 +57,9 @@ def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int
     """Twin of ``OccupiedSampler.build``: ``origins, directions [n_rays, D]``."""
     bins = grid.cfg.march_bins
     n_rays = origins.shape[0]
-    near = torch.as_tensor(near, dtype=torch.float32).reshape(-1, 1).expand(n_rays, 1)
-    far = torch.as_tensor(far, dtype=torch.float32).reshape(-1, 1).expand(n_rays, 1)
-    k = torch.arange(bins, dtype=torch.float32)
+    near, far = column(near).expand(n_rays, 1), column(far).expand(n_rays, 1)
     dt = (far - near) * (1.0 / bins)
-    t_mid = near + (k + 0.5) * ((far - near) * (1.0 / bins))                     # [n_rays, M]
+    t_mid = near + (torch.arange(bins, dtype=torch.float32) + 0.5) * dt                      # [n_rays, M]
     x = origins[:, None, :] + t_mid[..., None] * directions[:, None, :]
     cell, inside = cell_index(x.reshape(-1, origins.shape[1]), grid.bound, grid.cfg.resolution)
     occ = (inside & (grid.occupied[cell] > 0.5)).reshape(n_rays, bins)
@@ -68,15 +67,10 @@ def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int
     stride = torch.clamp((K + (n - 1)) // n, min=1)
     rank = torch.cumsum(occ.long(), 1) - occ.long()                               # occupied bins before
     j = rank // stride
-    take = occ & (rank % stride == 0) & (j < n)
-    rays = np.repeat(np.arange(n_rays, dtype=np.uint32), bins).reshape(n_rays, bins)
-    kk = np.tile(np.arange(bins, dtype=np.uint32), (n_rays, 1))
-    u = torch.from_numpy(uniform(seed, rays, kk)) if jitter else torch.full((n_rays, bins), 0.5)
-    group = torch.minimum(stride, K - rank)
-    t_out = far.expand(n_rays, n).clone()
-    d_out = torch.zeros(n_rays, n)
-    r_idx, k_idx = torch.nonzero(take, as_tuple=True)
+    r_idx, k_idx = torch.nonzero(occ & (rank % stride == 0) & (j < n), as_tuple=True)
+    u = offsets(seed, n_rays, bins, jitter)
+    t_out, d_out = far.expand(n_rays, n).clone(), torch.zeros(n_rays, n)
     slot = j[r_idx, k_idx]
-    t_out[r_idx, slot] = (near[:, 0][r_idx] + (k_idx.float() + u[r_idx, k_idx]) * dt[:, 0][r_idx])
-    d_out[r_idx, slot] = group[r_idx, k_idx].float() * dt[:, 0][r_idx]
+    t_out[r_idx, slot] = near[r_idx, 0] + (k_idx.float() + u[r_idx, k_idx]) * dt[r_idx, 0]
+    d_out[r_idx, slot] = torch.minimum(stride, K - rank)[r_idx, k_idx].float() * dt[r_idx, 0]
     return Explicit(t_out, n, d_out)

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import torch
 from torch import nn
 
-from ...render.pipeline import RenderConfig, join_params, split_params
+from ...render.pipeline import RenderConfig, join_params, split_params, sum_terms
 from .occupancy import occupied_samples
 from .samplers import Stratified, importance_sample
-from .volume import RenderOutput, volume_render
+from .volume import volume_render
 
 
 class Model(nn.Module):
@@ -34,9 +36,7 @@ class Model(nn.Module):
         return any([f.schedule(step) for f in self.fields.values() if hasattr(f, "schedule")])
 
     def regularizer(self, seed: int):
-        terms = [f.regularizer(seed) for f in self.fields.values() if hasattr(f, "regularizer")]
-        terms = [t for t in terms if t is not None]
-        return sum(terms[1:], terms[0]) if terms else None
+        return sum_terms(f.regularizer(seed) for f in self.fields.values() if hasattr(f, "regularizer"))
 
     def final_field(self) -> str:
         return "fine" if "fine" in self.fields else "coarse"
@@ -46,25 +46,21 @@ class Model(nn.Module):
 
     def render(self, origins, directions, near, far, seed: int, training: bool, weights: bool = False,
                occupancy=None) -> dict:
-        cfg = self.render_cfg
+        cfg, seed = self.render_cfg, int(np.uint32(seed))
         n = origins.shape[0]
         if occupancy is not None and cfg.occupancy.enabled:
-            coarse = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse,
-                                      int(np.uint32(seed)), training)
+            sampler = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse, seed, training)
         else:
-            coarse = Stratified(cfg.n_coarse, int(np.uint32(seed)), jitter=training)
-        out_c = volume_render(self.fields["coarse"], origins, directions, near, far, coarse, cfg.background,
-                              weights=True)
-        if cfg.n_fine <= 0:
-            result = {"coarse": out_c if weights else RenderOutput(out_c.rgb, out_c.depth, out_c.opacity), "fine": None}
-            if weights:
-                result["samples"] = coarse.points(n, near, far)
-            return result
-        t, delta = coarse.points(n, near, far)
-        fine = importance_sample(t, delta, out_c.weights, cfg.n_fine, int(np.uint32(seed)), training)
-        g = "fine" if "fine" in self.fields else "coarse"
-        out_f = volume_render(self.fields[g], origins, directions, near, far, fine, cfg.background, weights=weights)
-        result = {"coarse": out_c, "fine": out_f}
+            sampler = Stratified(cfg.n_coarse, seed, jitter=training)
+        result = {"coarse": volume_render(self.fields["coarse"], origins, directions, near, far, sampler,
+                                          cfg.background, weights=True), "fine": None}
+        if cfg.n_fine > 0:
+            t, delta = sampler.points(n, near, far)
+            sampler = importance_sample(t, delta, result["coarse"].weights, cfg.n_fine, seed, training)
+            result["fine"] = volume_render(self.fields[self.final_field()], origins, directions, near, far, sampler,
+                                           cfg.background, weights=weights)
+        elif not weights:
+            result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
-            result["samples"] = fine.points(n, near, far)
+            result["samples"] = sampler.points(n, near, far)
         return result

@@ -8,7 +8,20 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from ...rng import uniform_np as uniform
+from ...rng import uniform_np
+
+
+def column(value) -> torch.Tensor:
+    """Per-ray values ``[n_rays]`` or a scalar as a float32 column ``[n_rays or 1, 1]``."""
+    return torch.as_tensor(value, dtype=torch.float32).reshape(-1, 1)
+
+
+def offsets(seed: int, n_rays: int, n: int, jitter: bool) -> torch.Tensor:
+    """``[n_rays, n]``: the hash ``uniform(seed, ray, i)`` of :mod:`mitnerf.rng`, or 0.5 without jitter."""
+    if not jitter:
+        return torch.full((n_rays, n), 0.5, dtype=torch.float32)
+    ray, i = np.meshgrid(np.arange(n_rays, dtype=np.uint32), np.arange(n, dtype=np.uint32), indexing="ij")
+    return torch.from_numpy(uniform_np(seed, ray, i))
 
 
 @dataclass
@@ -19,12 +32,9 @@ class Stratified:
 
     def points(self, n_rays: int, near: torch.Tensor, far: torch.Tensor):
         """``t, delta [n_rays, n]`` (``near, far``: ``[n_rays]`` or scalars)."""
-        ray = np.repeat(np.arange(n_rays, dtype=np.uint32), self.n + 1).reshape(n_rays, self.n + 1)
-        i = np.tile(np.arange(self.n + 1, dtype=np.uint32), (n_rays, 1))
-        u = uniform(self.seed, ray, i) if self.jitter else np.full(ray.shape, 0.5, np.float32)
-        near = torch.as_tensor(near, dtype=torch.float32).reshape(-1, 1)
-        far = torch.as_tensor(far, dtype=torch.float32).reshape(-1, 1)
-        t = near + (torch.from_numpy(i.astype(np.float32)) + torch.from_numpy(u)) * ((far - near) * (1.0 / self.n))
+        near, far = column(near), column(far)
+        i = torch.arange(self.n + 1, dtype=torch.float32)
+        t = near + (i + offsets(self.seed, n_rays, self.n + 1, self.jitter)) * ((far - near) * (1.0 / self.n))
         t[:, self.n:] = far.expand(n_rays, 1)
         return t[:, :-1], t[:, 1:] - t[:, :-1]
 
@@ -38,8 +48,7 @@ class Explicit:
     def points(self, n_rays, near, far):
         if self.delta is not None:
             return self.t, self.delta
-        far = torch.as_tensor(far, dtype=torch.float32).reshape(-1, 1).expand(n_rays, 1)
-        return self.t, torch.cat([self.t[:, 1:], far], dim=1) - self.t
+        return self.t, torch.cat([self.t[:, 1:], column(far).expand(n_rays, 1)], dim=1) - self.t
 
 
 def importance_sample(t, delta, weights, n_fine: int, seed: int, jitter: bool) -> Explicit:
@@ -47,11 +56,8 @@ def importance_sample(t, delta, weights, n_fine: int, seed: int, jitter: bool) -
     n_rays, Nc = t.shape
     w = weights.detach() + 1e-5
     cdf = torch.cumsum(w, dim=1)
-    j = np.tile(np.arange(n_fine, dtype=np.uint32), (n_rays, 1))
-    ray = np.repeat(np.arange(n_rays, dtype=np.uint32), n_fine).reshape(n_rays, n_fine)
-    u = uniform(seed ^ 0x5BD1E995, ray, j) if jitter else np.full(j.shape, 0.5, np.float32)
-    u = (torch.from_numpy(j.astype(np.float32)) + torch.from_numpy(u)) * (1.0 / n_fine)
-    target = u * cdf[:, -1:]
+    j = torch.arange(n_fine, dtype=torch.float32)
+    target = (j + offsets(seed ^ 0x5BD1E995, n_rays, n_fine, jitter)) * (1.0 / n_fine) * cdf[:, -1:]
     k = torch.clamp(torch.searchsorted(cdf, target, right=False), max=Nc - 1)
     wk = torch.gather(w, 1, k)
     frac = torch.clamp((target - (torch.gather(cdf, 1, k) - wk)) / wk, 0.0, 1.0)

@@ -1,9 +1,8 @@
-"""Twin of :mod:`mitnerf.render.volume` / :mod:`~mitnerf.render.autodiff`: the volume
-integral in PyTorch autograd (all samples flat, exclusive cumulative sums)."""
+"""Twin of :mod:`mitnerf.render.volume`: the volume integral in PyTorch autograd (exclusive cumulative sums)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import torch
 
@@ -35,7 +34,6 @@ def volume_render(field, origins, directions, near, far, sampler, background=(0.
     t, delta = sampler.points(n, near, far)
     N = t.shape[1]
     x = origins[:, None, :] + t[..., None] * directions[:, None, :]
-    d = directions[:, None, :].expand(n, N, D)
-    sigma, rgb = field.query(x.reshape(-1, D), d.reshape(-1, D))
+    sigma, rgb = field.query(x.reshape(-1, D), directions[:, None, :].expand(n, N, D).reshape(-1, D))
     out = integrate(sigma.reshape(n, N), rgb.reshape(n, N, 3), t, delta, background)
-    return out if weights else RenderOutput(out.rgb, out.depth, out.opacity)
+    return out if weights else replace(out, weights=None)
