@@ -56,7 +56,7 @@ def main(argv=None) -> int:
         record_result(f"seeds/{recipe.name}", v,
                       f"{v['runs']} seeds x {STEPS[family]} steps: {v['nan']} NaN, {v['collapsed']} collapsed; test "
                       f"PSNR median {v['median']:.2f} dB (10-90 %: {v['p10']:.2f}-{v['p90']:.2f}, min {v['min']:.2f})",
-                      f"python benchmarks/seeds.py --seeds {args.seeds}", recipe=recipe.name)
+                      f"python benchmarks/seeds.py --seeds {args.seeds} --families {family}", recipe=recipe.name)
     return 0
 
 

@@ -90,9 +90,10 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
     for family, args in cands:
         if spent():
             break
-        r = recipe_for(family, dataset.dim).override(**args, iters=cfg.steps, seed=cfg.seed, val_every=0,
-                                                     val_views=100, n_coarse=cfg.samples,
-                                                     background=dataset.background, progress=False)
+        r = recipe_for(family, dataset.dim).override(**{"view_dependent": False, **args}, iters=cfg.steps,
+                                                     seed=cfg.seed, val_every=0, val_views=100, n_coarse=cfg.samples,
+                                                     background=dataset.background, progress=False,
+                                                     **{key: 0.0 for key, _ in cfg.regularisers})
         r.train.time_budget, r.model.render.occupancy.enabled = None, False   # probes: cfg.steps steps, one validation
         t = trial(r, "size")
         if best is None or t.val_psnr > best.val_psnr or t.val_psnr >= cfg.target_psnr:

@@ -78,8 +78,10 @@ class Recipe:
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
         occ = ", occupancy grid" if r.occupancy.enabled else ""
         fine = f" + {r.n_fine} fine" if r.n_fine else ""
+        losses = "".join(f", {k.split('_')[0]} {getattr(t, k):g}" for k in ("depth_weight", "distortion_weight",
+                                                                              "opacity_weight") if getattr(t, k))
         return (f"{self.name}: {self.model.field} ({args}); {r.n_coarse}{fine} samples{occ}; "
-                f"{budget}, batch {t.batch_rays}, lr {t.lr:g} -> {t.lr_final:g}")
+                f"{budget}, batch {t.batch_rays}, lr {t.lr:g} -> {t.lr_final:g}{losses}")
 
 
 def _r(name, dim, field, args, render, train, about) -> Recipe:
@@ -88,9 +90,12 @@ def _r(name, dim, field, args, render, train, about) -> Recipe:
 
 _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock decides, not the step count
 RECIPES: dict[str, Recipe] = {r.name: r for r in [
-    _r("grid-2d", 2, "grid", dict(resolution=513, initial_resolution=129, upsample_at=(150, 400), tv_weight=1e-4),
-       dict(n_coarse=128), dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, **_BUDGET),
-       "dense 2D grid, coarse to fine 129 -> 513, 10 s: the default for 2D datasets"),
+    _r("grid-2d", 2, "grid", dict(resolution=513, initial_resolution=129, upsample_at=(150, 400), tv_weight=1e-4,
+                                  view_dependent=True),
+       dict(n_coarse=128), dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
+                                opacity_weight=1e-3, **_BUDGET),
+       "dense 2D grid, view-dependent colour, coarse to fine 129 -> 513, distortion + opacity losses, 10 s: "
+       "the default for 2D datasets"),
     _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4), dict(n_coarse=64),
        dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=1024),
        "NeRF MLP 4 x 64, L = 8, 3000 steps"),
