@@ -74,7 +74,7 @@ def table(ds, budget: float, auto: bool, options=tuple(OPTIONS)) -> list[dict]:
             rows.append(row(ds, r, f"{family}, {name}" + (" [recipe]" if r.essence() == base.essence() else "")))
     if auto:
         t0 = time.perf_counter()
-        chosen, reasons = choose_recipe(ds, recipe_for(None, ds.dim), cfg=AutoConfig(time_budget=90))
+        chosen, reasons = choose_recipe(ds, AutoConfig(time_budget=90))
         search = time.perf_counter() - t0
         rows.append({**row(ds, chosen.override(time_budget=budget, progress=False), "auto", search),
                      "why": "; ".join(reasons[-4:])})

@@ -105,6 +105,23 @@ def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
     assert chosen["square"] < chosen["bunny"], chosen
 
 
+def test_auto_keeps_what_the_user_typed():
+    """``fit --auto --lr 0.02 --time-budget 3``: the search picks the model, the user's settings still hold."""
+    from mitnerf.data.cache import cached_dataset
+    from mitnerf.data.rig import RigConfig
+    from mitnerf.train.auto import AutoConfig, choose_recipe
+
+    ds = cached_dataset("square", RigConfig(dim=2, n_train=8, n_val=2, n_test=2, resolution=32, seed=0))
+    # one 20-step probe of the smallest grid, then the search budget is spent
+    cfg = AutoConfig(steps=20, families=("grid",), time_budget=1e-3)
+    chosen, reasons = choose_recipe(ds, cfg, {"lr": 0.02, "time_budget": 3.0})
+    assert chosen.model.field == "grid" and chosen.model.field_args["resolution"] == 9, chosen.summary()
+    assert chosen.model.field_args["view_dependent"] is False           # probed from off, never kept
+    assert (chosen.train.lr, chosen.train.time_budget) == (0.02, 3.0)
+    assert chosen.name == "auto:grid-2d+", chosen.name                    # a modified recipe says so
+    assert any("not tried: the search budget is spent" in r for r in reasons), reasons
+
+
 @pytest.mark.parametrize("field, dim", [("grid", 2), ("grid", 3), ("hashgrid", 2), ("hashgrid", 3)])
 def test_grid_fields_pass_the_backend_checks(field, dim):
     import check_backends

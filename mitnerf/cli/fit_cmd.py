@@ -13,7 +13,7 @@ from .._io import Output
 from ..data.formats import load_dataset
 from ..errors import ConfigError
 from ..results import load_results
-from ..train.auto import choose_recipe
+from ..train.auto import AutoConfig, choose_recipe
 from ..train.checkpoint import load_checkpoint
 from ..train.fit import check_dataset, fit
 from ..train.loop import Interrupted, TrainingFailed
@@ -60,7 +60,10 @@ def run_fit(args) -> int:
     check_dataset(dataset, need_test=True)
     out = Output(out_path, "fit", args.overwrite) if out_path else None      # refused before training
     if args.auto:
-        recipe, reasons = choose_recipe(dataset, recipe, backend)
+        if args.recipe:
+            raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")
+        cfg = AutoConfig(families=(args.field,)) if args.field else None
+        recipe, reasons = choose_recipe(dataset, cfg, overrides(args))
         for line in reasons:
             print(f"auto: {line}")
     print(f"recipe {recipe.summary()} ({backend})")

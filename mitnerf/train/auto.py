@@ -88,7 +88,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
 
     best = None
     for family, args in cands:
-        if spent():
+        if spent() and best is not None:        # at least one candidate, whatever the budget
             break
         r = recipe_for(family, dataset.dim).override(**{"view_dependent": False, **args}, iters=cfg.steps,
                                                      seed=cfg.seed, val_every=0, val_views=100, n_coarse=cfg.samples,
@@ -134,10 +134,11 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
     return AutoResult(best.recipe, trials, reached, reasons)
 
 
-def choose_recipe(dataset: Dataset, base: Recipe, backend: str = "drjit",
-                  cfg: AutoConfig | None = None) -> tuple[Recipe, list[str]]:
+def choose_recipe(dataset: Dataset, cfg: AutoConfig | None = None,
+                  settings: dict | None = None) -> tuple[Recipe, list[str]]:
     """``fit --auto``: the smallest model that reaches the target, trained with its family's
-    full recipe (budget and schedule); returns it and the reasons."""
+    full recipe (budget and schedule) and then ``settings`` (what the user typed,
+    :meth:`Recipe.override`); returns it and the reasons."""
     result = auto_size(dataset, cfg)
     chosen = recipe_for(result.recipe.model.field, dataset.dim)
     chosen.model.field_args.update(result.recipe.model.field_args)
@@ -148,4 +149,4 @@ def choose_recipe(dataset: Dataset, base: Recipe, backend: str = "drjit",
     lines = [f"{t.recipe.model.field} ({', '.join(f'{k}={v}' for k, v in t.recipe.model.field_args.items())}), "
              f"{t.recipe.model.render.n_coarse} samples: {t.params} parameters, validation {round(t.val_psnr, 2)} dB "
              f"[{t.note}]" for t in result.trials]
-    return chosen.validate(), lines + result.reasons
+    return chosen.override(**(settings or {})).validate(), lines + result.reasons
