@@ -105,6 +105,22 @@ def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
     assert chosen["square"] < chosen["bunny"], chosen
 
 
+def test_auto_picks_the_smallest_size_near_the_best_probe():
+    from mitnerf.train.auto import Trial, pick_size
+    from mitnerf.train.recipes import recipe_for
+
+    r = recipe_for("grid", 2)
+    # probes smallest first: 30.0, 35.8, 36.0, 35.9 dB
+    sized = [Trial(r, n, v, 10.0) for n, v in ((1_000, 30.0), (4_000, 35.8), (16_000, 36.0), (64_000, 35.9))]
+    assert pick_size(sized, 0.3)[0].params == 4_000          # 35.8 >= 36.0 - 0.3: the smallest near the best
+    assert pick_size(sized, 0.1)[0].params == 16_000         # only 36.0 and 35.9 are near; 16k is smaller
+    assert pick_size(sized, 0.0)[2].startswith("the best of 4 probes")
+    chosen, reached, why = pick_size(sized, 0.3, target=35.0)
+    assert (chosen.params, reached) == (4_000, True)          # the first to reach 35 dB
+    chosen, reached, why = pick_size(sized, 0.3, target=40.0)
+    assert (chosen.params, reached) == (16_000, False) and "none reached 40.0 dB" in why
+
+
 def test_auto_keeps_what_the_user_typed():
     """``fit --auto --lr 0.02 --time-budget 3``: the search picks the model, the user's settings still hold."""
     from mitnerf.data.cache import cached_dataset
@@ -112,10 +128,10 @@ def test_auto_keeps_what_the_user_typed():
     from mitnerf.train.auto import AutoConfig, choose_recipe
 
     ds = cached_dataset("square", RigConfig(dim=2, n_train=8, n_val=2, n_test=2, resolution=32, seed=0))
-    # one 20-step probe of the smallest grid, then the search budget is spent
+    # one 20-step probe of the smallest grid (33 vertices a side), then the search budget is spent
     cfg = AutoConfig(steps=20, families=("grid",), time_budget=1e-3)
     chosen, reasons = choose_recipe(ds, cfg, {"lr": 0.02, "time_budget": 3.0})
-    assert chosen.model.field == "grid" and chosen.model.field_args["resolution"] == 9, chosen.summary()
+    assert chosen.model.field == "grid" and chosen.model.field_args["resolution"] == 33, chosen.summary()
     assert chosen.model.field_args["view_dependent"] is False           # probed from off, never kept
     assert (chosen.train.lr, chosen.train.time_budget) == (0.02, 3.0)
     assert chosen.name == "auto:grid-2d+", chosen.name                    # a modified recipe says so

@@ -30,8 +30,8 @@ def register(sub) -> None:
                    help="write into an --out folder that holds other files (they are left alone)")
     p.add_argument("--resume", metavar="RUN", help="continue an interrupted run from its --out folder")
     p.add_argument("--backend", choices=["drjit", "torch"], help="engine (default: drjit)")
-    p.add_argument("--auto", action="store_true", help="choose view dependence and regularisation from a short "
-                   "probe of the dataset, and say why")
+    p.add_argument("--auto", action="store_true", help="choose the field, its size, view dependence and the losses "
+                   "from probe runs as long as the real one, and say why")
     p.add_argument("--no-figures", action="store_true", help="write the checkpoint and metrics only")
     add_recipe_flags(p)
     p.set_defaults(run=run_fit)

@@ -1,49 +1,61 @@
-"""Let the data choose the smallest model that reaches a target, from short probe runs: :func:`auto_size`
-probes ``LADDER``'s candidates by parameter count (same steps and seed, judged by validation PSNR); the first
-to reach ``target_psnr`` is the size. Then fewer samples are tried, and view dependence and each regulariser
-are kept only if they gain ``vd_gain`` / ``reg_gain`` dB. Every trial and every decision's reason is kept."""
+"""Let the data choose the model, from probe runs judged at the budget the model will train for.
+
+:func:`auto_size` trains each of ``LADDER``'s candidates (its family's recipe, with the candidate's size, view
+dependence and regularisers off) for ``probe_time`` seconds of the clock, so a faster model's extra steps
+count as they will in the real run; the score is validation PSNR. The chosen size is the smallest candidate
+within ``tolerance`` dB of the best probe, or, with ``target_psnr``, the first to reach it. Then half the
+samples per ray are tried, and view dependence and each regulariser are kept only if they gain ``vd_gain`` /
+``reg_gain`` dB. Every trial and every decision's reason is kept."""
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, field
 
 from ..data.dataset import Dataset
-from ..fields import make_field
+from ..fields import FIELDS, make_field
+from .config import TrainConfig
 from .fit import fit
 from .recipes import Recipe, recipe_for
 
 LADDER = {
-    2: [("grid", dict(resolution=r, initial_resolution=r, upsample_at=())) for r in (9, 17, 33, 65, 129, 257, 513)]
-    + [("vanilla", dict(width=w, depth=3 if w < 64 else 4, pos_L=L, dir_L=2, view_dependent=False))
-       for w, L in ((16, 4), (32, 6), (64, 8))]
-    + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (10, 12, 14)],
-    3: [("grid", dict(resolution=r, initial_resolution=r, upsample_at=())) for r in (17, 33, 65, 129)]
-    + [("vanilla", dict(width=w, depth=4, pos_L=L, dir_L=2, view_dependent=False)) for w, L in ((32, 6), (64, 8))]
-    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (12, 14, 16)],
+    2: [("grid", dict(resolution=r, initial_resolution=min(r, 129), upsample_at=(150, 400)))
+        for r in (33, 65, 129, 257, 513)]
+    + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
+    + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (12, 14)],
+    3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
+    + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
+    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)],
 }
-"""Candidate (family, settings) per dimension, before sorting by parameter count."""
+"""Candidate (family, settings on top of the family's recipe) per dimension, probed smallest first."""
 
 
 @dataclass
 class AutoConfig:
     """The search."""
 
-    target_psnr: float = 30.0
-    """Validation PSNR a model must reach."""
-    steps: int = 400
-    """Training steps per probe (the same for all: a deterministic search)."""
+    probe_time: float | None = None
+    """Seconds of training per probe, and the budget of the chosen recipe; None: the user's ``--time-budget``
+    (``choose_recipe``'s settings), else the default recipe's budget for the dataset's dimension."""
+    steps: int | None = None
+    """If set, each probe takes this many steps instead (a deterministic search; the chosen recipe keeps its
+    family's budget)."""
+    tolerance: float = 0.3
+    """A candidate within this many dB of the best probe is good enough; the smallest such is chosen."""
+    target_psnr: float | None = None
+    """If set, the first candidate (smallest first) to reach this validation PSNR is chosen, and larger
+    ones are not probed."""
     time_budget: float = 300.0
     """Seconds for the whole search; past it, the best candidate so far is returned."""
     families: tuple = ("grid", "vanilla", "hashgrid")
     """Field families to consider."""
-    samples: int = 64
-    """Samples per ray of the size probes."""
     vd_gain: float = 0.2
     """Minimum validation-PSNR gain (dB) for view dependence to be kept."""
-    regularisers: tuple = (("distortion_weight", 1e-3), ("opacity_weight", 1e-3))
-    """(training setting, weight) pairs tried one at a time on the chosen model."""
+    regularisers: tuple = (("tv_color_weight", 1e-2), ("distortion_weight", 1e-3), ("opacity_weight", 1e-3))
+    """(training or field setting, weight) pairs tried one at a time on the chosen model, where its family
+    has the setting."""
     reg_gain: float = 0.2
     """Minimum validation-PSNR gain (dB) for a regulariser to be kept."""
     seed: int = 0
@@ -71,12 +83,49 @@ class AutoResult:
         return self.recipe.model
 
 
+def applies(key: str, family: str) -> bool:
+    """Whether ``key`` is a training setting or a setting of ``family``'s fields."""
+    return key in TrainConfig.__dataclass_fields__ or key in FIELDS[family][0].__dataclass_fields__
+
+
+def probe_seconds(cfg: AutoConfig, dim: int) -> float:
+    return cfg.probe_time or recipe_for(None, dim).train.time_budget
+
+
+def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> Recipe:
+    """The family's recipe with the candidate's settings, view dependence and the regularisers off, trained for
+    :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on every validation view."""
+    budget = dict(iters=cfg.steps) if cfg.steps else dict(time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)
+    off = {key: 0.0 for key, _ in cfg.regularisers if applies(key, family)}
+    r = recipe_for(family, dataset.dim).override(**{"view_dependent": False, **args}, seed=cfg.seed, val_every=0,
+                                                  val_views=10 ** 6, background=dataset.background, progress=False,
+                                                  **budget, **off)
+    if cfg.steps:
+        r.train.time_budget = None
+    return r
+
+
+def pick_size(sized: list[Trial], tolerance: float, target: float | None = None) -> tuple[Trial, bool, str]:
+    """``(chosen, reached, why)`` of size probes listed smallest first: the first to reach ``target`` when
+    one is given (else the best), otherwise the first within ``tolerance`` dB of the best."""
+    top = max(sized, key=lambda t: t.val_psnr)
+    name = lambda t: f"{t.recipe.model.field}, {t.params} parameters, {t.val_psnr:.2f} dB"
+    if target is not None:
+        first = next((t for t in sized if t.val_psnr >= target), None)
+        return ((first, True, f"the smallest candidate to reach {target:.1f} dB") if first else
+                (top, False, f"the best candidate: none reached {target:.1f} dB within the search budget"))
+    first = next(t for t in sized if t.val_psnr >= top.val_psnr - tolerance)
+    return first, True, (f"the best of {len(sized)} probes" if first is top else
+                         f"the smallest within {tolerance} dB of the best probe ({name(top)})")
+
+
 def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
-    """The smallest candidate that reaches ``cfg.target_psnr``; see the module docstring."""
+    """The chosen model and its options; see the module docstring."""
     cfg = cfg or AutoConfig()
     t0 = time.perf_counter()
     spent = lambda: time.perf_counter() - t0 > cfg.time_budget
-    size = lambda fam, args: sum(v.size for v in make_field(fam, **{**args, "dim": dataset.dim}).init_numpy(0).values())
+    final = lambda args: {**args, "initial_resolution": args["resolution"]} if "initial_resolution" in args else args
+    size = lambda fam, args: sum(v.size for v in make_field(fam, **final(args), dim=dataset.dim).init_numpy(0).values())
     cands = sorted((c for c in LADDER[dataset.dim] if c[0] in cfg.families), key=lambda c: size(*c))
     trials: list[Trial] = []
 
@@ -86,36 +135,22 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
         trials.append(Trial(recipe, run.backend.n_params(), val[-1] if val else -math.inf, run.state.train_time, note))
         return trials[-1]
 
-    best = None
+    sized: list[Trial] = []
     for family, args in cands:
-        if spent() and best is not None:        # at least one candidate, whatever the budget
+        if spent() and sized:                     # at least one candidate, whatever the budget
             break
-        r = recipe_for(family, dataset.dim).override(**{"view_dependent": False, **args}, iters=cfg.steps,
-                                                     seed=cfg.seed, val_every=0, val_views=100, n_coarse=cfg.samples,
-                                                     background=dataset.background, progress=False,
-                                                     **{key: 0.0 for key, _ in cfg.regularisers})
-        r.train.time_budget, r.model.render.occupancy.enabled = None, False   # probes: cfg.steps steps, one validation
-        t = trial(r, "size")
-        if best is None or t.val_psnr > best.val_psnr or t.val_psnr >= cfg.target_psnr:
-            best = t
-        if t.val_psnr >= cfg.target_psnr:
+        sized.append(trial(probe_recipe(family, args, dataset, cfg), "size"))
+        if cfg.target_psnr is not None and sized[-1].val_psnr >= cfg.target_psnr:
             break
-    reached = best.val_psnr >= cfg.target_psnr
-    fam = best.recipe.model.field
-    reasons = [f"{fam} with {best.params} parameters is the smallest candidate to reach {cfg.target_psnr:.1f} dB "
-               f"({best.val_psnr:.2f} dB)" if reached else
-               f"no candidate reached {cfg.target_psnr:.1f} dB within the budget; best: {fam} ({best.val_psnr:.2f} dB)"]
-    for samples in (32, 16):                       # fewer samples?
-        if samples >= best.recipe.model.render.n_coarse or spent():
-            continue
+    best, reached, why = pick_size(sized, cfg.tolerance, cfg.target_psnr)
+    reasons = [f"{best.recipe.model.field} with {best.params} parameters ({best.val_psnr:.2f} dB) is {why}"]
+    samples = best.recipe.model.render.n_coarse // 2          # fewer samples: faster steps, more of them
+    if samples >= 16 and not spent():
         t = trial(best.recipe.override(n_coarse=samples), "samples")
-        if t.val_psnr >= min(cfg.target_psnr, best.val_psnr - 0.1):
-            reasons.append(f"{samples} samples per ray are enough ({t.val_psnr:.2f} dB)")
-            best = t
-        else:
-            reasons.append(f"{samples} samples per ray lose quality ({t.val_psnr:.2f} dB): keep "
-                           f"{best.recipe.model.render.n_coarse}")
-            break
+        enough = t.val_psnr >= best.val_psnr - 0.1
+        reasons.append(f"{samples} samples per ray " + (f"are enough ({t.val_psnr:.2f} dB)" if enough else
+                       f"lose quality ({t.val_psnr:.2f} dB): keep {best.recipe.model.render.n_coarse}"))
+        best = t if enough else best
     if not spent():                                # view dependence has to earn its place
         t = trial(best.recipe.override(view_dependent=True), "view dependence")
         gain = t.val_psnr - best.val_psnr
@@ -123,6 +158,8 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
                        f"view dependence dropped: it changed validation PSNR by {gain:+.2f} dB (< {cfg.vd_gain} dB)")
         best = t if gain >= cfg.vd_gain else best
     for key, weight in cfg.regularisers:           # so does each regulariser
+        if not applies(key, best.recipe.model.field):
+            continue
         if spent():
             reasons.append(f"{key} not tried: the search budget is spent")
             continue
@@ -136,17 +173,24 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
 
 def choose_recipe(dataset: Dataset, cfg: AutoConfig | None = None,
                   settings: dict | None = None) -> tuple[Recipe, list[str]]:
-    """``fit --auto``: the smallest model that reaches the target, trained with its family's
-    full recipe (budget and schedule) and then ``settings`` (what the user typed,
-    :meth:`Recipe.override`); returns it and the reasons."""
+    """``fit --auto``: the chosen model, trained with its family's full recipe (budget and schedule) and then
+    ``settings`` (what the user typed, :meth:`Recipe.override`); returns it and the reasons. Unless the probes
+    count steps, the chosen recipe trains for the probes' budget (the user's ``time_budget`` when typed)."""
+    settings = dict(settings or {})
+    cfg = copy.copy(cfg or AutoConfig())
+    if settings.get("time_budget") and not cfg.probe_time:
+        cfg.probe_time = float(settings["time_budget"])
     result = auto_size(dataset, cfg)
     chosen = recipe_for(result.recipe.model.field, dataset.dim)
+    if not cfg.steps:
+        chosen.train.time_budget, chosen.train.iters = probe_seconds(cfg, dataset.dim), 10 ** 6
     chosen.model.field_args.update(result.recipe.model.field_args)
     chosen.model.render.n_coarse = result.recipe.model.render.n_coarse
-    for key, _ in (cfg or AutoConfig()).regularisers:
-        setattr(chosen.train, key, getattr(result.recipe.train, key))
+    for key, _ in cfg.regularisers:
+        if key in TrainConfig.__dataclass_fields__:
+            setattr(chosen.train, key, getattr(result.recipe.train, key))
     chosen.name = f"auto:{chosen.name}"
     lines = [f"{t.recipe.model.field} ({', '.join(f'{k}={v}' for k, v in t.recipe.model.field_args.items())}), "
              f"{t.recipe.model.render.n_coarse} samples: {t.params} parameters, validation {round(t.val_psnr, 2)} dB "
-             f"[{t.note}]" for t in result.trials]
-    return chosen.override(**(settings or {})).validate(), lines + result.reasons
+             f"in {t.train_time:.1f} s [{t.note}]" for t in result.trials]
+    return chosen.override(**settings).validate(), lines + result.reasons

@@ -90,12 +90,12 @@ def _r(name, dim, field, args, render, train, about) -> Recipe:
 
 _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock decides, not the step count
 RECIPES: dict[str, Recipe] = {r.name: r for r in [
-    _r("grid-2d", 2, "grid", dict(resolution=513, initial_resolution=129, upsample_at=(150, 400), tv_weight=1e-4,
-                                  view_dependent=True),
+    _r("grid-2d", 2, "grid", dict(resolution=257, initial_resolution=129, upsample_at=(150,), tv_weight=1e-4,
+                                  view_dependent=True, tv_color_weight=1e-2),
        dict(n_coarse=128), dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, **_BUDGET),
-       "dense 2D grid, view-dependent colour, coarse to fine 129 -> 513, distortion + opacity losses, 10 s: "
-       "the default for 2D datasets"),
+       "dense 2D grid, view-dependent colour, coarse to fine 129 -> 257, colour TV + distortion + opacity losses, "
+       "10 s: the default for 2D datasets"),
     _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4), dict(n_coarse=64),
        dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=1024),
        "NeRF MLP 4 x 64, L = 8, 3000 steps"),
