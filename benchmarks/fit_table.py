@@ -14,7 +14,7 @@ Prints the table and records it in ``results.json`` (``fits/<scene>``, ``fits/lo
 
     python benchmarks/fit_table.py [--scenes bunny bunny_glossy square_concave tu] [--budget 10]
                                    [--budget-3d 60] [--long 300] [--long-scenes bunny ...]
-                                   [--no-auto] [--no-3d]
+                                   [--no-auto] [--no-3d] [--redo grid hashgrid vanilla auto]
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import time
 import _common  # noqa: F401  (chooses the Mitsuba variant)
 from mitnerf.data.cache import cached_dataset
 from mitnerf.data.rig import RigConfig, noise_preset
-from mitnerf.results import record_result
+from mitnerf.results import load_results, record_result
 from mitnerf.train.auto import AutoConfig, applies, choose_recipe
 from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
@@ -69,9 +69,9 @@ def show(scene: str, rows: list[dict], dim: int) -> None:
               f"{r['seconds']:6.1f}  {r['status']}", flush=True)
 
 
-def table(ds, budget: float, auto: bool, options=tuple(OPTIONS)) -> list[dict]:
+def table(ds, budget: float, auto: bool, options=tuple(OPTIONS), families=FAMILIES) -> list[dict]:
     rows = []
-    for family in FAMILIES:
+    for family in families:
         base = recipe_for(family, ds.dim).override(time_budget=budget, iters=10 ** 6, progress=False)
         done = []
         for name in options:
@@ -88,6 +88,22 @@ def table(ds, budget: float, auto: bool, options=tuple(OPTIONS)) -> list[dict]:
     return rows
 
 
+def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTIONS)) -> tuple[list[dict], str]:
+    """The table of one scene and the command that made it: every row, or with ``--redo`` the named families'
+    (and ``auto``) rows anew and the others as recorded."""
+    command = ("python benchmarks/fit_table.py " + " ".join(args.argv)).strip()
+    if not args.redo:
+        return table(ds, budget, auto, options), command
+    old = load_results().get(key)
+    if old is None:
+        raise SystemExit(f"fit_table: no {key} in results.json; run without --redo first")
+    new = table(ds, budget, auto and "auto" in args.redo, options, [f for f in FAMILIES if f in args.redo])
+    kept = [r for r in old["values"]["rows"] if r["run"].split(",")[0] not in args.redo]
+    order = {f: i for i, f in enumerate((*FAMILIES, "auto"))}
+    rows = sorted(kept + new, key=lambda r: order[r["run"].split(",")[0]])          # stable: options keep their order
+    return rows, old["command"].split(" && ")[0] + " && " + command
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenes", nargs="+", default=["bunny", "bunny_glossy", "square_concave", "tu"])
@@ -97,20 +113,22 @@ def main(argv=None) -> int:
     p.add_argument("--long-scenes", nargs="*", default=["bunny", "bunny_glossy", "square_concave", "tu"])
     p.add_argument("--no-auto", action="store_true")
     p.add_argument("--no-3d", action="store_true")
+    p.add_argument("--redo", nargs="+", choices=(*FAMILIES, "auto"), help="rerun only these families' rows (and "
+                   "the auto rows) after a change to them, keeping the other rows as recorded; no longer runs")
     args = p.parse_args(argv)
-    command = "python benchmarks/fit_table.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    args.argv = argv if argv is not None else sys.argv[1:]
     longer = {}
     for scene in args.scenes:
         ds = dataset(scene, 2)
-        rows = table(ds, args.budget, not args.no_auto)
+        rows, command = rows_for(f"fits/{scene}", ds, args.budget, args, not args.no_auto)
         show(scene, rows, 2)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
         auto = next((r for r in rows if r["run"] == "auto"), None)
         record_result(f"fits/{scene}", {"rows": rows},
                       f"best {best['run']} {best['psnr']:.2f} dB, IoU {best['geometry']:.3f} in {args.budget:g} s"
                       + (f"; auto {auto['psnr']:.2f} dB, IoU {auto['geometry']:.3f} ({auto['recipe']})" if auto else ""),
-                      command.strip())
-        if args.long and scene in args.long_scenes:
+                      command)
+        if args.long and scene in args.long_scenes and not args.redo:
             base = recipe_for(None, 2)
             short = row(ds, base.override(time_budget=args.budget, progress=False), f"{base.name}, {args.budget:g} s")
             long = row(ds, base.override(time_budget=args.long, iters=10 ** 6, progress=False),
@@ -123,15 +141,16 @@ def main(argv=None) -> int:
         record_result("fits/longer", longer,
                       f"default 2D recipe, {args.budget:g} s -> {args.long:g} s: test PSNR change "
                       + ", ".join(f"{s} {v['long'] - v['short']:+.2f} dB" for s, v in longer.items())
-                      + (" (never lower)" if worst >= 0 else " (lower on some scene)"), command.strip())
-    if not args.no_3d:
+                      + (" (never lower)" if worst >= 0 else " (lower on some scene)"), command)
+    if not args.no_3d and set(args.redo or FAMILIES) & set(FAMILIES):
         ds = dataset("vase_glossy", 3)
-        rows = table(ds, args.budget_3d, auto=False, options=("plain", "view dependence", "view dep. + reg."))
+        rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False,
+                                 ("plain", "view dependence", "view dep. + reg."))
         show("vase_glossy (3D, 25 views)", rows, 3)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
         record_result("fits/vase_glossy", {"rows": rows},
                       f"best {best['run']} {best['psnr']:.2f} dB, Chamfer {best['geometry']:.4f} in {args.budget_3d:g} s",
-                      command.strip())
+                      command)
     return 0
 
 

@@ -132,7 +132,7 @@ def test_auto_keeps_what_the_user_typed():
     cfg = AutoConfig(steps=20, families=("grid",), time_budget=1e-3)
     chosen, reasons = choose_recipe(ds, cfg, {"lr": 0.02, "time_budget": 3.0})
     assert chosen.model.field == "grid" and chosen.model.field_args["resolution"] == 33, chosen.summary()
-    assert chosen.model.field_args["view_dependent"] is False           # probed from off, never kept
+    assert chosen.model.field_args["view_dependent"] is True            # the recipe's own: never probed
     assert (chosen.train.lr, chosen.train.time_budget) == (0.02, 3.0)
     assert chosen.name == "auto:grid-2d+", chosen.name                    # a modified recipe says so
     assert any("not tried: the search budget is spent" in r for r in reasons), reasons

@@ -1,11 +1,11 @@
 """Let the data choose the model, from probe runs judged at the budget the model will train for.
 
-:func:`auto_size` trains each of ``LADDER``'s candidates (its family's recipe, with the candidate's size, view
-dependence and regularisers off) for ``probe_time`` seconds of the clock, so a faster model's extra steps
-count as they will in the real run; the score is validation PSNR. The chosen size is the smallest candidate
-within ``tolerance`` dB of the best probe, or, with ``target_psnr``, the first to reach it. Then half the
-samples per ray are tried, and view dependence and each regulariser are kept only if they gain ``vd_gain`` /
-``reg_gain`` dB. Every trial and every decision's reason is kept."""
+:func:`auto_size` trains each of ``LADDER``'s candidates (its family's recipe, options included, with the
+candidate's size) for ``probe_time`` seconds of the clock, so a faster model's extra steps count as they will in
+the real run; the score is validation PSNR. The chosen size is the smallest candidate within ``tolerance`` dB of
+the best probe, or, with ``target_psnr``, the first to reach it. Then half the samples per ray are tried, and
+view dependence and each regulariser are switched the other way one at a time: each is kept only where it gains
+``vd_gain`` / ``reg_gain`` dB. Every trial and every decision's reason is kept."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 
 from ..data.dataset import Dataset
-from ..fields import FIELDS, make_field
+from ..fields import FIELDS, field_config, make_field
 from .config import TrainConfig
 from .fit import fit
 from .recipes import Recipe, recipe_for
@@ -88,18 +88,23 @@ def applies(key: str, family: str) -> bool:
     return key in TrainConfig.__dataclass_fields__ or key in FIELDS[family][0].__dataclass_fields__
 
 
+def setting(recipe: Recipe, key: str):
+    """The value of a training or field setting in ``recipe`` (the field's default when not set)."""
+    if key in TrainConfig.__dataclass_fields__:
+        return getattr(recipe.train, key)
+    return getattr(field_config(recipe.model.field, **recipe.model.field_args, dim=recipe.dim), key)
+
+
 def probe_seconds(cfg: AutoConfig, dim: int) -> float:
     return cfg.probe_time or recipe_for(None, dim).train.time_budget
 
 
 def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> Recipe:
-    """The family's recipe with the candidate's settings, view dependence and the regularisers off, trained for
+    """The family's recipe (its view dependence and losses included) with the candidate's settings, trained for
     :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on every validation view."""
     budget = dict(iters=cfg.steps) if cfg.steps else dict(time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)
-    off = {key: 0.0 for key, _ in cfg.regularisers if applies(key, family)}
-    r = recipe_for(family, dataset.dim).override(**{"view_dependent": False, **args}, seed=cfg.seed, val_every=0,
-                                                  val_views=10 ** 6, background=dataset.background, progress=False,
-                                                  **budget, **off)
+    r = recipe_for(family, dataset.dim).override(**args, seed=cfg.seed, val_every=0, val_views=10 ** 6,
+                                                  background=dataset.background, progress=False, **budget)
     if cfg.steps:
         r.train.time_budget = None
     return r
@@ -151,23 +156,23 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
         reasons.append(f"{samples} samples per ray " + (f"are enough ({t.val_psnr:.2f} dB)" if enough else
                        f"lose quality ({t.val_psnr:.2f} dB): keep {best.recipe.model.render.n_coarse}"))
         best = t if enough else best
-    if not spent():                                # view dependence has to earn its place
-        t = trial(best.recipe.override(view_dependent=True), "view dependence")
-        gain = t.val_psnr - best.val_psnr
-        reasons.append(f"view dependence kept: +{gain:.2f} dB validation PSNR" if gain >= cfg.vd_gain else
-                       f"view dependence dropped: it changed validation PSNR by {gain:+.2f} dB (< {cfg.vd_gain} dB)")
-        best = t if gain >= cfg.vd_gain else best
-    for key, weight in cfg.regularisers:           # so does each regulariser
+    options = [("view_dependent", True, cfg.vd_gain)] + [(k, w, cfg.reg_gain) for k, w in cfg.regularisers]
+    for key, on, need in options:                  # each option has to earn its place
         if not applies(key, best.recipe.model.field):
             continue
+        now = setting(best.recipe, key)
+        label = "view dependence" if key == "view_dependent" else f"{key} = {now or on:g}"
         if spent():
-            reasons.append(f"{key} not tried: the search budget is spent")
+            reasons.append(f"{label} not tried: the search budget is spent (left {'on' if now else 'off'}, "
+                           "as in the recipe)")
             continue
-        t = trial(best.recipe.override(**{key: weight}), key)
-        gain = t.val_psnr - best.val_psnr
-        verb = "kept" if gain >= cfg.reg_gain else "dropped"
-        reasons.append(f"{key} = {weight:g} {verb}: {gain:+.2f} dB validation PSNR (threshold {cfg.reg_gain} dB)")
-        best = t if gain >= cfg.reg_gain else best
+        t = trial(best.recipe.override(**{key: type(on)(0) if now else on}), key.replace("view_dependent",
+                                                                                         "view dependence"))
+        with_it, without = (best, t) if now else (t, best)
+        gain = with_it.val_psnr - without.val_psnr
+        reasons.append(f"{label} {'kept' if gain >= need else 'dropped'}: {gain:+.2f} dB validation PSNR with it "
+                       f"(threshold {need} dB)")
+        best = with_it if gain >= need else without
     return AutoResult(best.recipe, trials, reached, reasons)
 
 
