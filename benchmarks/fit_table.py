@@ -4,13 +4,14 @@ Every 2D scene (the NeRF2D protocol: 50 noisy views of 100 px, 4 validation, 8 t
 is fitted by each family's recipe (``grid-2d``, ``hashgrid-2d``, ``vanilla-2d``) for
 ``--budget`` seconds with each option set of ``OPTIONS`` (view dependence on or off, the
 regularisers on or off; the recipe's own set is marked), then by ``mitnerf fit --auto``'s
-choice (marked ``auto``; its probes train as long as the rows, the search stops after 150 s, and its
-time is counted). The 3D rows fit a glossy vase
-(25 views of 100 x 100) for ``--budget-3d`` seconds (plain, view dependence, both with the losses). The default
+choice (marked ``auto``; its probes train as long as the rows, the search stops after 150 s,
+and its time is counted). The 3D rows fit a glossy vase (25 views of 100 x 100) for
+``--budget-3d`` seconds (plain, view dependence, view dependence with the losses). The default
 recipe is also run for ``--long`` seconds on the ``--long-scenes``: test PSNR must not fall
 with more training (the best validation checkpoint is kept). Every row: test PSNR, SSIM,
 IoU (2D) or Chamfer distance (3D), parameters, training seconds.
-Prints the table and records it in ``results.json`` (``fits/<scene>``, ``fits/longer``).
+Prints the table and records it in ``results.json`` (``fits/<scene>``, ``fits/longer``);
+``--redo`` reruns the named families' rows (or ``auto``) and keeps the other rows as recorded.
 
     python benchmarks/fit_table.py [--scenes bunny bunny_glossy square_concave tu] [--budget 10]
                                    [--budget-3d 60] [--long 300] [--long-scenes bunny ...]
