@@ -28,17 +28,17 @@ import _common  # noqa: F401  (chooses the Mitsuba variant)
 from mitnerf.data.cache import cached_dataset
 from mitnerf.data.rig import RigConfig, noise_preset
 from mitnerf.results import load_results, record_result
-from mitnerf.train.auto import AutoConfig, applies, choose_recipe
+from mitnerf.train.auto import AutoConfig, choose_recipe
 from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
 
-_OFF = {"view_dependent": False, "tv_color_weight": 0.0, "distortion_weight": 0.0, "opacity_weight": 0.0}
-_REG = {"tv_color_weight": 1e-2, "distortion_weight": 1e-3, "opacity_weight": 1e-3}
+_REG = dict(AutoConfig.regularisers)     # the losses and weights fit --auto tries
+_OFF = {"view_dependent": False, **{k: 0.0 for k in _REG}}
 OPTIONS = {
     "plain": _OFF,
     "view dependence": {**_OFF, "view_dependent": True},
     "regularised": {**_OFF, **_REG},
-    "view dep. + dist. + opacity": {**_OFF, "view_dependent": True, "distortion_weight": 1e-3, "opacity_weight": 1e-3},
+    "view dep. + dist. + opacity": {**_OFF, **_REG, "view_dependent": True, "tv_color_weight": 0.0},
     "view dep. + reg.": {"view_dependent": True, **_REG},
 }
 """Option sets, each stating every option, applied on top of each family's recipe (the colour total
@@ -76,7 +76,7 @@ def table(ds, budget: float, auto: bool, options=tuple(OPTIONS), families=FAMILI
         base = recipe_for(family, ds.dim).override(time_budget=budget, iters=10 ** 6, progress=False)
         done = []
         for name in options:
-            r = base.override(**{k: v for k, v in OPTIONS[name].items() if applies(k, family)})
+            r = base.override(**{k: v for k, v in OPTIONS[name].items() if base.has(k)})
             if r.essence() in done:
                 continue
             done.append(r.essence())

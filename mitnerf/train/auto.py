@@ -15,8 +15,7 @@ import time
 from dataclasses import dataclass, field
 
 from ..data.dataset import Dataset
-from ..fields import FIELDS, field_config, make_field
-from .config import TrainConfig
+from ..fields import make_field
 from .fit import fit
 from .recipes import Recipe, recipe_for
 
@@ -83,18 +82,6 @@ class AutoResult:
         return self.recipe.model
 
 
-def applies(key: str, family: str) -> bool:
-    """Whether ``key`` is a training setting or a setting of ``family``'s fields."""
-    return key in TrainConfig.__dataclass_fields__ or key in FIELDS[family][0].__dataclass_fields__
-
-
-def setting(recipe: Recipe, key: str):
-    """The value of a training or field setting in ``recipe`` (the field's default when not set)."""
-    if key in TrainConfig.__dataclass_fields__:
-        return getattr(recipe.train, key)
-    return getattr(field_config(recipe.model.field, **recipe.model.field_args, dim=recipe.dim), key)
-
-
 def probe_seconds(cfg: AutoConfig, dim: int) -> float:
     return cfg.probe_time or recipe_for(None, dim).train.time_budget
 
@@ -158,9 +145,9 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
         best = t if enough else best
     options = [("view_dependent", True, cfg.vd_gain)] + [(k, w, cfg.reg_gain) for k, w in cfg.regularisers]
     for key, on, need in options:                  # each option has to earn its place
-        if not applies(key, best.recipe.model.field):
+        if not best.recipe.has(key):
             continue
-        now = setting(best.recipe, key)
+        now = best.recipe.get(key)
         label = "view dependence" if key == "view_dependent" else f"{key} = {now or on:g}"
         if spent():
             reasons.append(f"{label} not tried: the search budget is spent (left {'on' if now else 'off'}, "
@@ -178,23 +165,20 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
 
 def choose_recipe(dataset: Dataset, cfg: AutoConfig | None = None,
                   settings: dict | None = None) -> tuple[Recipe, list[str]]:
-    """``fit --auto``: the chosen model, trained with its family's full recipe (budget and schedule) and then
-    ``settings`` (what the user typed, :meth:`Recipe.override`); returns it and the reasons. Unless the probes
-    count steps, the chosen recipe trains for the probes' budget (the user's ``time_budget`` when typed)."""
+    """``fit --auto``: the winning probe's recipe with its family's validation and seed settings, then ``settings``
+    (what the user typed, :meth:`Recipe.override`); returns it and the reasons. It trains for the probes' budget
+    (the user's ``time_budget`` when typed), or its family's when the probes count steps."""
     settings = dict(settings or {})
     cfg = copy.copy(cfg or AutoConfig())
     if settings.get("time_budget") and not cfg.probe_time:
         cfg.probe_time = float(settings["time_budget"])
     result = auto_size(dataset, cfg)
-    chosen = recipe_for(result.recipe.model.field, dataset.dim)
-    if not cfg.steps:
-        chosen.train.time_budget, chosen.train.iters = probe_seconds(cfg, dataset.dim), 10 ** 6
-    chosen.model.field_args.update(result.recipe.model.field_args)
-    chosen.model.render.n_coarse = result.recipe.model.render.n_coarse
-    for key, _ in cfg.regularisers:
-        if key in TrainConfig.__dataclass_fields__:
-            setattr(chosen.train, key, getattr(result.recipe.train, key))
-    chosen.name = f"auto:{chosen.name}"
+    base = recipe_for(result.recipe.model.field, dataset.dim)   # the winning probe, less what only probes set
+    own = base.train
+    chosen = result.recipe.override(val_every=own.val_every, val_views=own.val_views, seed=own.seed,
+                                    progress=own.progress,
+                                    **(dict(iters=own.iters, time_budget=own.time_budget) if cfg.steps else {}))
+    chosen.name = f"auto:{base.name}"
     lines = [f"{t.recipe.model.field} ({', '.join(f'{k}={v}' for k, v in t.recipe.model.field_args.items())}), "
              f"{t.recipe.model.render.n_coarse} samples: {t.params} parameters, validation {round(t.val_psnr, 2)} dB "
              f"in {t.train_time:.1f} s [{t.note}]" for t in result.trials]

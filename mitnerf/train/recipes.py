@@ -8,6 +8,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from ..errors import ConfigError
+from ..fields import FIELDS, field_config
 from ..render.occupancy import OccupancyConfig
 from ..render.pipeline import RenderConfig
 from .config import ModelConfig, TrainConfig
@@ -60,6 +61,16 @@ class Recipe:
         if out.essence() != self.essence() and not self.name.endswith("+"):
             out.name = self.name + "+"          # a modified recipe says so
         return out
+
+    def has(self, key: str) -> bool:
+        """Whether :meth:`override` and :meth:`get` know ``key`` as a training or field setting."""
+        return key in TrainConfig.__dataclass_fields__ or key in FIELDS[self.model.field][0].__dataclass_fields__
+
+    def get(self, key: str):
+        """A training or field setting (the field's default when the recipe does not set it)."""
+        if key in TrainConfig.__dataclass_fields__:
+            return getattr(self.train, key)
+        return getattr(field_config(self.model.field, **self.model.field_args, dim=self.dim), key)
 
     def essence(self) -> dict:
         """The settings that change what is trained (not progress bars or thread counts)."""
