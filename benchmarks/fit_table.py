@@ -6,16 +6,16 @@ is fitted by each family's recipe (``grid-2d``, ``hashgrid-2d``, ``vanilla-2d``)
 regularisers on or off; the recipe's own set is marked), then by ``mitnerf fit --auto``'s
 choice (marked ``auto``; its probes train as long as the rows, the search stops after 150 s,
 and its time is counted). The 3D rows fit a glossy vase (25 views of 100 x 100) for
-``--budget-3d`` seconds (plain, view dependence, view dependence with the losses). The default
+``--budget-3d`` seconds (plain, view dependence, with the losses, with free space too). The default
 recipe is also run for ``--long`` seconds on the ``--long-scenes``: test PSNR must not fall
 with more training (the best validation checkpoint is kept). Every row: test PSNR, SSIM,
 IoU (2D) or Chamfer distance (3D), parameters, training seconds.
 Prints the table and records it in ``results.json`` (``fits/<scene>``, ``fits/longer``);
-``--redo`` reruns the named families' rows (or ``auto``) and keeps the other rows as recorded.
+``--redo`` reruns the named families' rows (or ``auto``, or the ``longer`` runs) and keeps the other rows as recorded.
 
     python benchmarks/fit_table.py [--scenes bunny bunny_glossy square_concave tu] [--budget 10]
                                    [--budget-3d 60] [--long 300] [--long-scenes bunny ...]
-                                   [--no-auto] [--no-3d] [--redo grid hashgrid vanilla auto]
+                                   [--no-auto] [--no-3d] [--redo grid hashgrid vanilla auto longer]
 """
 
 from __future__ import annotations
@@ -33,18 +33,20 @@ from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
 
 _REG = dict(AutoConfig.regularisers)     # the losses and weights fit --auto tries
-_OFF = {"view_dependent": False, **{k: 0.0 for k in _REG}}
+_FREE = {"free_space_weight": recipe_for("grid", 2).train.free_space_weight}
+_OFF = {"view_dependent": False, "free_space_weight": 0.0, **{k: 0.0 for k in _REG}}
 OPTIONS = {
     "plain": _OFF,
     "view dependence": {**_OFF, "view_dependent": True},
     "regularised": {**_OFF, **_REG},
     "view dep. + dist. + opacity": {**_OFF, **_REG, "view_dependent": True, "tv_color_weight": 0.0},
-    "view dep. + reg.": {"view_dependent": True, **_REG},
+    "view dep. + reg.": {**_OFF, "view_dependent": True, **_REG},
+    "view dep. + reg. + free space": {**_OFF, "view_dependent": True, **_REG, **_FREE},
 }
 """Option sets, each stating every option, applied on top of each family's recipe (the colour total
 variation only where the family has it: a set that then repeats an earlier one is skipped); the row
 whose set is the recipe's own is marked ``[recipe]``. "reg." is the colour total variation, the
-distortion and the opacity loss."""
+distortion and the opacity loss; "free space" the loss on the dataset's depth (our scenes carry it)."""
 FAMILIES = ("grid", "hashgrid", "vanilla")
 
 
@@ -114,8 +116,8 @@ def main(argv=None) -> int:
     p.add_argument("--long-scenes", nargs="*", default=["bunny", "bunny_glossy", "square_concave", "tu"])
     p.add_argument("--no-auto", action="store_true")
     p.add_argument("--no-3d", action="store_true")
-    p.add_argument("--redo", nargs="+", choices=(*FAMILIES, "auto"), help="rerun only these families' rows (and "
-                   "the auto rows) after a change to them, keeping the other rows as recorded; no longer runs")
+    p.add_argument("--redo", nargs="+", choices=(*FAMILIES, "auto", "longer"), help="rerun only these families' "
+                   "rows (and the auto rows, the longer runs) after a change to them, keeping the others as recorded")
     args = p.parse_args(argv)
     args.argv = argv if argv is not None else sys.argv[1:]
     longer = {}
@@ -129,7 +131,7 @@ def main(argv=None) -> int:
                       f"best {best['run']} {best['psnr']:.2f} dB, IoU {best['geometry']:.3f} in {args.budget:g} s"
                       + (f"; auto {auto['psnr']:.2f} dB, IoU {auto['geometry']:.3f} ({auto['recipe']})" if auto else ""),
                       command)
-        if args.long and scene in args.long_scenes and not args.redo:
+        if args.long and scene in args.long_scenes and (not args.redo or "longer" in args.redo):
             base = recipe_for(None, 2)
             short = row(ds, base.override(time_budget=args.budget, progress=False), f"{base.name}, {args.budget:g} s")
             long = row(ds, base.override(time_budget=args.long, iters=10 ** 6, progress=False),
@@ -146,7 +148,7 @@ def main(argv=None) -> int:
     if not args.no_3d and set(args.redo or FAMILIES) & set(FAMILIES):
         ds = dataset("vase_glossy", 3)
         rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False,
-                                 ("plain", "view dependence", "view dep. + reg."))
+                                 ("plain", "view dependence", "view dep. + reg.", "view dep. + reg. + free space"))
         show("vase_glossy (3D, 25 views)", rows, 3)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
         record_result("fits/vase_glossy", {"rows": rows},

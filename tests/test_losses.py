@@ -1,4 +1,4 @@
-"""The DS-NeRF depth loss: value and gradient by hand, and its torch twin."""
+"""The DS-NeRF depth loss and the free-space loss: value and gradient by hand, and their torch twins."""
 
 import math
 
@@ -61,3 +61,59 @@ def test_zero_length_intervals_are_skipped():
     q0 = 1.0 / math.sqrt(2 * math.pi)
     assert float(loss[0]) == pytest.approx(q0 * (math.log(q0) - math.log(0.6 + EPS)), rel=1e-5)
     assert np.isfinite(np.asarray(dr.grad(w))).all()
+
+
+# ----------------------------------------------------------------------------- free space
+def test_free_space_by_hand():
+    # two rays of 3 samples at t = 1, 2, 3 (delta = 1), free margin 0.5:
+    #   ray 0: free F = 3.6, so the intervals ending at 2 and 3 (<= 3.1) count: 0.1 + 0.2 = 0.3
+    #   ray 1: F = inf (its pixel and neighbours miss): all three count: 0.05 + 0.05 + 0.1 = 0.2
+    #   mean over the two rays: 0.25; dL/dw = 1/2 on counted samples, 0 on ray 0's last
+    from mitnerf.train.losses import free_space
+    w = Float(0.1, 0.2, 0.6, 0.05, 0.05, 0.1)
+    dr.enable_grad(w)
+    loss = free_space(w, Float(1, 2, 3, 1, 2, 3), Float(1, 1, 1, 1, 1, 1), Float(3.6, float("inf")), 3, 0.5)
+    dr.backward(loss)
+    assert float(loss[0]) == pytest.approx(0.25, rel=1e-6)
+    np.testing.assert_allclose(np.asarray(dr.grad(w)), [0.5, 0.5, 0, 0.5, 0.5, 0.5])
+
+
+def test_free_space_skips_unknown_rays_and_the_twin_agrees():
+    from mitnerf.reference.train.losses import free_space as free_space_torch
+    from mitnerf.train.losses import free_space
+    rng = np.random.default_rng(1)
+    n, N = 6, 16
+    t = np.sort(rng.uniform(1, 5, (n, N)), axis=1).astype(np.float32)
+    delta = np.diff(np.c_[t, np.full(n, 5.0)], axis=1).astype(np.float32)
+    w = rng.dirichlet(np.ones(N), n).astype(np.float32) * 0.9
+    free = np.array([2.5, 0.0, np.inf, 3.0, 0.0, 4.2], np.float32)     # 0: unknown
+    W = Float(w.ravel())
+    dr.enable_grad(W)
+    loss = free_space(W, Float(t.ravel()), Float(delta.ravel()), Float(free), N, 0.05)
+    dr.backward(loss)
+    tw = torch.tensor(w, requires_grad=True)
+    tl = free_space_torch(tw, torch.from_numpy(t), torch.from_numpy(delta), torch.from_numpy(free), N, 0.05)
+    tl.backward()
+    assert float(loss[0]) == pytest.approx(float(tl.detach()), rel=1e-5)
+    g = np.asarray(dr.grad(W)).reshape(n, N)
+    np.testing.assert_allclose(g, tw.grad.numpy(), rtol=1e-6)
+    assert not g[free == 0].any()           # nothing known about these rays
+    assert g[2].all()                       # inf: every interval of the ray is empty
+
+
+def test_free_distance_of_a_view():
+    from mitnerf.data.dataset import free_distance
+    # one 1D view of 6 pixels: depth inf (miss), 2, 1.5, miss, miss, miss -> the least depth of each pixel and
+    # its two neighbours: 2, 1.5, 1.5, 1.5, inf, inf (a jittered ray of pixel 3 may reach pixel 2's surface)
+    d = np.array([np.inf, 2.0, 1.5, np.inf, np.inf, np.inf]).reshape(1, 6, 1)
+    np.testing.assert_array_equal(free_distance(d, None, np.ones((1, 6, 1))).ravel(), [2, 1.5, 1.5, 1.5, np.inf, np.inf])
+    # no depth: alpha 0 in the whole neighbourhood means empty all along, anything else unknown (0)
+    a = np.array([0, 0, 0, 0.5, 0, 0]).reshape(1, 6, 1)
+    np.testing.assert_array_equal(free_distance(None, None, a).ravel(), [np.inf, np.inf, 0, 0, 0, np.inf])
+    # a format without alpha (all ones) says nothing
+    assert not free_distance(None, None, np.ones((1, 6, 1))).any()
+    # 2D images take the 3 x 3 neighbourhood
+    img = np.full((1, 3, 3), np.inf)
+    img[0, 0, 0] = 1.0
+    np.testing.assert_array_equal(free_distance(img, None, np.ones((1, 3, 3)))[0],
+                                  [[1, 1, np.inf], [1, 1, np.inf], [np.inf] * 3])

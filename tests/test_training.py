@@ -25,7 +25,8 @@ def test_a_short_run_lowers_the_loss_threefold(bunny_small, backend):
     assert run.state.history["val_psnr"][-1] > 16.0
 
 
-OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "fine": dict(n_fine=16),
+OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "free space": dict(free_space_weight=0.5),
+           "fine": dict(n_fine=16),
            "occupancy": {"occupancy.enabled": True, "occupancy.warmup": 4, "occupancy.update_every": 4,
                          "occupancy.resolution": 32},
            "regularisers": dict(distortion_weight=0.01, opacity_weight=0.01, view_dependent=True),
@@ -36,7 +37,7 @@ OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "fine": dict(n_fine=16
 @pytest.mark.parametrize("family", ["vanilla", "grid", "hashgrid"])
 def test_engines_agree_step_by_step(bunny_small, family, option):
     """Same weights, batches and jitter: the loss curves coincide, for every field family with
-    depth supervision, a fine pass or the occupancy grid (this caught Dr.Jit 1.5.0's Adam
+    depth supervision, the free-space loss, a fine pass or the occupancy grid (this caught Dr.Jit 1.5.0's Adam
     scaling an array learning rate in place, and a torch engine without depth samples)."""
     recipe = small(f"{family}-2d", **OPTIONS[option])
     if family == "grid":
@@ -154,3 +155,15 @@ def test_check_backends_script_passes():
 
     assert check_backends.main(["--rays", "24", "--samples", "16", "--fine", "8", "--width", "8"]) == 0
     assert check_backends.main(["--dim", "3", "--rays", "16", "--samples", "12", "--fine", "0", "--width", "8"]) == 0
+
+
+def test_the_free_space_loss_sees_the_initial_fog(bunny_small):
+    """The initial density is a thin fog everywhere: in front of the measured depth it is what the
+    free-space loss penalises, so the first step's loss is larger with it on than off."""
+    ds, losses = bunny_small, []
+    for weight in (0.0, 0.5):
+        recipe = small("grid-2d", free_space_weight=weight)
+        be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
+        be.set_data(ds["train"].rays((0, 0, 0)))
+        losses.append(be.read(be.step(0, step_seed(0, 0), 0.0))[0])
+    assert losses[1] > losses[0] + 0.01, losses

@@ -26,10 +26,37 @@ class RaySet:
     target: np.ndarray      # [P, 3] display-space colour over the background
     depth: np.ndarray       # [P] distance along the ray, 0 where unknown or a miss
     hit: np.ndarray         # [P] 1.0 where the depth is known (the ray hits), else 0.0
+    free: np.ndarray        # [P] empty along the ray up to here (:func:`free_distance`), 0 where unknown
     footprint: np.ndarray   # [P, 2, D] the pixel's extent (:meth:`Cameras.footprint`)
 
     def __len__(self) -> int:
         return len(self.origins)
+
+
+def free_distance(depth: np.ndarray | None, mask: np.ndarray | None, alpha: np.ndarray) -> np.ndarray:
+    """``[n, H, W]``: how far along each pixel's ray space is known to be empty, for *any* ray through the pixel
+    (training rays are jittered across it): the smallest depth of the pixel and its 8 neighbours, ``inf`` where
+    none of them hits, and 0 (unknown) where the split has no depth and the alpha does not say (alpha > 0 in
+    the neighbourhood, or alpha all ones: a format without it). Without depth, pixels whose neighbourhood has
+    alpha 0 are empty all along."""
+    def neighbourhood_min(a: np.ndarray) -> np.ndarray:
+        out = a.copy()
+        for axis in (1, 2):
+            if a.shape[axis] > 1:
+                p = np.moveaxis(out, axis, 0)
+                m = p.copy()
+                m[1:] = np.minimum(m[1:], p[:-1])
+                m[:-1] = np.minimum(m[:-1], p[1:])
+                out = np.moveaxis(m, 0, axis)
+        return out
+
+    if depth is not None:
+        hit = mask.astype(bool) if mask is not None else np.isfinite(depth)
+        return neighbourhood_min(np.where(hit, depth, np.inf))
+    if np.all(alpha >= 1.0):
+        return np.zeros(alpha.shape, np.float32)
+    empty = -neighbourhood_min(-alpha) <= 0.0          # the neighbourhood's largest alpha is 0
+    return np.where(empty, np.inf, 0.0)
 
 
 @dataclass
@@ -96,6 +123,7 @@ class Split:
             hit, depth = np.zeros(len(target), bool), np.zeros(len(target))
         return RaySet(o.reshape(-1, D).astype(np.float32), d.reshape(-1, D).astype(np.float32),
                       target.astype(np.float32), depth.astype(np.float32), hit.astype(np.float32),
+                      free_distance(self.depth, self.mask, self.alpha).reshape(-1).astype(np.float32),
                       self.cameras.footprint().reshape(-1, 2, D).astype(np.float32))
 
     def subset(self, index) -> "Split":

@@ -21,8 +21,8 @@ def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
     return fields
 
 
-def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, regularizer):
-    """The final pass's MSE, the fields' regularisers, and the coarse, depth, distortion and opacity terms
+def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, free, regularizer):
+    """The final pass's MSE, the fields' regularisers, and the coarse, depth, free-space, distortion and opacity terms
     with their ``cfg`` weights; ``ops``: the engine's losses (:mod:`mitnerf.train.losses` or its twin)."""
     final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
     loss = ops.mse(final.rgb, target)
@@ -33,6 +33,9 @@ def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth
     t, delta = outs["samples"] if cfg.needs_weights else (None, None)
     if cfg.depth_weight > 0:
         loss = loss + cfg.depth_weight * ops.depth_kl(final.weights, t, delta, depth, hit, n_final, cfg.depth_sigma)
+    if cfg.free_space_weight > 0:
+        loss = loss + cfg.free_space_weight * ops.free_space(final.weights, t, delta, free, n_final,
+                                                             cfg.free_space_margin)
     if cfg.distortion_weight > 0:
         loss = loss + cfg.distortion_weight * ops.distortion(final.weights, t, delta, n_final)
     if cfg.opacity_weight > 0:

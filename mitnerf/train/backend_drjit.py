@@ -55,7 +55,7 @@ class DrJitBackend(Backend):
     def set_data(self, rays: RaySet) -> None:
         # {name: columns}: a PyTree, so frozen steps see it as input
         self.data = {k: columns(getattr(rays, k).reshape(len(rays), -1))
-                     for k in ("origins", "directions", "target", "depth", "hit", "footprint")}
+                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint")}
         self.n_pixels = len(rays)
 
     def _new_step(self):
@@ -82,6 +82,7 @@ class DrJitBackend(Backend):
             outs = model.render(params, g(data["origins"]), d, near, far, seed, training=True, weights=use_weights,
                                 occupied=occupied)
             loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), g(data["depth"])[0], g(data["hit"])[0],
+                                 g(data["free"])[0],
                                  model.regularizer(params, seed))
             dr.backward(loss)
             bad = [dr.count(~dr.isfinite(dr.grad(params[k]).array if dr.is_tensor_v(params[k])

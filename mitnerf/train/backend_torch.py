@@ -43,7 +43,7 @@ class TorchBackend(Backend):
 
     def set_data(self, rays: RaySet) -> None:
         self.data = {k: torch.from_numpy(np.ascontiguousarray(getattr(rays, k)))
-                     for k in ("origins", "directions", "target", "depth", "hit", "footprint")}
+                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint")}
         self.n_pixels = len(rays)
 
     def step(self, index: int, seed: int, lr: float):
@@ -59,7 +59,7 @@ class TorchBackend(Backend):
             d = torch.from_numpy(jitter_np(seed, d.numpy(), b["footprint"].numpy()).astype(np.float32))
         outs = self.model.render(b["origins"], d, self.near, self.far, seed, training=True,
                                  weights=self.cfg.needs_weights, occupancy=self.occupancy)
-        loss = training_loss(self.cfg, self.n_final, losses, outs, b["target"], b["depth"], b["hit"],
+        loss = training_loss(self.cfg, self.n_final, losses, outs, b["target"], b["depth"], b["hit"], b["free"],
                              self.model.regularizer(seed))
         self.opt.zero_grad(set_to_none=True)
         loss.backward()

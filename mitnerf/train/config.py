@@ -62,6 +62,12 @@ class TrainConfig:
     """Weight of DS-NeRF's depth loss on the dataset's depth (``mitnerf.train.losses``); 0: off."""
     depth_sigma: float = 0.05
     """Standard deviation of the depth-supervision Gaussian (world units)."""
+    free_space_weight: float = 0.0
+    """Weight of the free-space loss: no density before the depth the dataset measured, nor anywhere on a ray
+    whose pixel and neighbours miss (``mitnerf.train.losses``); 0: off, and nothing where the data has no
+    depth or alpha."""
+    free_space_margin: float = 0.01
+    """Distance before the measured depth within which the free-space loss leaves density alone (world units)."""
     distortion_weight: float = 0.0
     """Weight of mip-NeRF 360's distortion loss (floaters, fill-in); 0: off."""
     opacity_weight: float = 0.0
@@ -90,7 +96,7 @@ class TrainConfig:
     @property
     def needs_weights(self) -> bool:
         """Whether the loss needs the final pass's per-sample weights."""
-        return self.depth_weight > 0 or self.distortion_weight > 0
+        return self.depth_weight > 0 or self.distortion_weight > 0 or self.free_space_weight > 0
 
     def validate(self) -> None:
         check("iters", self.iters, 1, 10 ** 9, integer=True, flag="--iters")
@@ -107,6 +113,8 @@ class TrainConfig:
         check("depth_weight", self.depth_weight, 0, 1e6, flag="--depth-weight")
         check("depth_sigma", self.depth_sigma, 0, 1e6, strict_lo=True, flag="--depth-sigma")
         check("distortion_weight", self.distortion_weight, 0, 1e6, flag="--distortion-weight")
+        check("free_space_weight", self.free_space_weight, 0, 1e6, flag="--free-space-weight")
+        check("free_space_margin", self.free_space_margin, 0, 1e6)
         check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
         check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
         check("val_views", self.val_views, 1, 10 ** 6, integer=True)

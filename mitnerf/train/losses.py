@@ -9,6 +9,13 @@ towards :math:`q = \mathcal N(D, \hat\sigma^2)` around the measured depth *D* by
 :math:`\mathcal L_{dist} = \sum_{i,j} w_i w_j |m_i - m_j| + \tfrac13 \sum_i w_i^2 \delta_i`, computed in O(N) as
 :math:`2 \sum_i w_i (m_i W_i - S_i)` with the prefix sums :math:`W_i = \sum_{j<i} w_j, S_i = \sum_{j<i} w_j m_j`.
 
+**Free space (line of sight, as Urban Radiance Fields' empty-space term).** Where the data says that a ray
+crosses empty space up to a distance *F* (:attr:`~mitnerf.data.dataset.RaySet.free`: the nearest depth over the
+pixel and its neighbours, or the whole ray where none of them hits), the weight of every interval that ends
+before *F* - *m* is a fill-in or a floater: :math:`\mathcal L_{free} = \sum_{i:\, t_i + \delta_i \le F - m} w_i`,
+the mean over the rays that have an *F* (*F* > 0). It says nothing about where the surface is within the
+margin *m*, nor about anything behind it.
+
 **Opacity entropy.** :math:`-(A \log A + (1 - A) \log(1 - A))` per ray, the mean over rays."""
 
 from __future__ import annotations
@@ -34,6 +41,17 @@ def opacity_entropy(opacity: Float) -> Float:
     """Mean binary entropy of the rays' opacities."""
     a = dr.clip(opacity, 1e-4, 1.0 - 1e-4)
     return dr.mean(-(a * dr.log(a) + (1.0 - a) * dr.log(1.0 - a)))
+
+
+def free_space(weights: Float, t: Float, delta: Float, free: Float, N: int, margin: float) -> Float:
+    """Mean over rays with ``free > 0`` of the weight of their intervals that end before ``free - margin``.
+    ``weights, t, delta``: ``[n_rays * N]``; ``free``: ``[n_rays]`` (0: unknown, inf: the whole ray)."""
+    ray = dr.arange(UInt32, dr.width(t)) // N
+    F = dr.gather(Float, free, ray)
+    before = (t + delta <= F - margin) & (delta > 0)
+    per_ray = dr.block_sum(dr.select(before, weights, 0.0), N)
+    known = dr.select(free > 0, 1.0, 0.0)
+    return dr.sum(per_ray * known) / dr.maximum(dr.sum(known), 1.0)
 
 
 def mse(rgb: list, target: list) -> Float:

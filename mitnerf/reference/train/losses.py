@@ -34,3 +34,11 @@ def depth_kl(weights, t, delta, depth, hit, N: int, sigma: float) -> torch.Tenso
     term = torch.exp(log_q) * delta * (log_q - torch.log(weights / safe + EPS))
     per_ray = torch.where(delta > 0, term, torch.zeros_like(term)).sum(1) * hit
     return per_ray.sum() / torch.clamp(hit.sum(), min=1.0)
+
+
+def free_space(weights, t, delta, free, N: int, margin: float) -> torch.Tensor:
+    """``weights, t, delta [n_rays, N]``, ``free [n_rays]`` (``N`` as in the Dr.Jit signature)."""
+    before = (t + delta <= free[:, None] - margin) & (delta > 0)
+    per_ray = torch.where(before, weights, torch.zeros_like(weights)).sum(1)
+    known = (free > 0).to(weights.dtype)
+    return (per_ray * known).sum() / torch.clamp(known.sum(), min=1.0)
