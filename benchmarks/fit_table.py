@@ -6,7 +6,7 @@ is fitted by each family's recipe (``grid-2d``, ``hashgrid-2d``, ``vanilla-2d``)
 regularisers on or off; the recipe's own set is marked), then by ``mitnerf fit --auto``'s
 choice (marked ``auto``; its probes train as long as the rows, the search stops after 150 s,
 and its time is counted). The 3D rows fit a glossy vase (25 views of 100 x 100) for
-``--budget-3d`` seconds (plain, view dependence, with the losses, with free space too). The default
+``--budget-3d`` seconds (plain, view dependence, with the losses, with the depth losses too). The default
 recipe is also run for ``--long`` seconds on the ``--long-scenes``: test PSNR must not fall
 with more training (the best validation checkpoint is kept). Every row: test PSNR, SSIM,
 IoU (2D) or Chamfer distance (3D), parameters, training seconds.
@@ -33,20 +33,23 @@ from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
 
 _REG = dict(AutoConfig.regularisers)     # the losses and weights fit --auto tries
-_FREE = {"free_space_weight": recipe_for("grid", 2).train.free_space_weight}
-_OFF = {"view_dependent": False, "free_space_weight": 0.0, **{k: 0.0 for k in _REG}}
+_DEPTH = {k: recipe_for("grid", 2).get(k) for k in ("free_space_weight", "solid_weight")}   # losses on depth maps
+_OFF = {"view_dependent": False, **{k: 0.0 for k in (*_REG, *_DEPTH)}}
 OPTIONS = {
     "plain": _OFF,
     "view dependence": {**_OFF, "view_dependent": True},
     "regularised": {**_OFF, **_REG},
     "view dep. + dist. + opacity": {**_OFF, **_REG, "view_dependent": True, "tv_color_weight": 0.0},
     "view dep. + reg.": {**_OFF, "view_dependent": True, **_REG},
-    "view dep. + reg. + free space": {**_OFF, "view_dependent": True, **_REG, **_FREE},
+    "view dep. + reg. + free space": {**_OFF, "view_dependent": True, **_REG,
+                                      "free_space_weight": _DEPTH["free_space_weight"]},
+    "view dep. + reg. + free space + solid": {**_OFF, "view_dependent": True, **_REG, **_DEPTH},
 }
 """Option sets, each stating every option, applied on top of each family's recipe (the colour total
 variation only where the family has it: a set that then repeats an earlier one is skipped); the row
 whose set is the recipe's own is marked ``[recipe]``. "reg." is the colour total variation, the
-distortion and the opacity loss; "free space" the loss on the dataset's depth (our scenes carry it)."""
+distortion and the opacity loss; "free space" and "solid" the losses on the dataset's depth maps (our
+scenes carry them)."""
 FAMILIES = ("grid", "hashgrid", "vanilla")
 
 
@@ -148,7 +151,8 @@ def main(argv=None) -> int:
     if not args.no_3d and set(args.redo or FAMILIES) & set(FAMILIES):
         ds = dataset("vase_glossy", 3)
         rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False,
-                                 ("plain", "view dependence", "view dep. + reg.", "view dep. + reg. + free space"))
+                                 ("plain", "view dependence", "view dep. + reg.",
+                                  "view dep. + reg. + free space + solid"))
         show("vase_glossy (3D, 25 views)", rows, 3)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
         record_result("fits/vase_glossy", {"rows": rows},

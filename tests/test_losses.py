@@ -1,4 +1,4 @@
-"""The DS-NeRF depth loss and the free-space loss: value and gradient by hand, and their torch twins."""
+"""The depth losses (DS-NeRF, free space, solid behind the surface): values and gradients by hand, and their torch twins."""
 
 import math
 
@@ -117,3 +117,34 @@ def test_free_distance_of_a_view():
     img[0, 0, 0] = 1.0
     np.testing.assert_array_equal(free_distance(img, None, np.ones((1, 3, 3)))[0],
                                   [[1, 1, np.inf], [1, 1, np.inf], [np.inf] * 3])
+
+
+# ----------------------------------------------------------------------------- solid behind the surface
+def test_solid_behind_by_hand():
+    # three rays, level 3: densities 1.5 (hit), 6 (hit), 0 (a miss, left out):
+    #   (1 - 1.5/3)^2 = 0.25, (1 - 6/3) < 0 -> 0; mean over the two hit rays: 0.125
+    #   dL/dsigma_0 = 2 (1 - 0.5) (-1/3) / 2 = -1/6; 0 for the dense and the missing ray
+    from mitnerf.train.losses import solid_behind
+    s = Float(1.5, 6.0, 0.0)
+    dr.enable_grad(s)
+    loss = solid_behind(s, Float(1.0, 1.0, 0.0), 3.0)
+    dr.backward(loss)
+    assert float(loss[0]) == pytest.approx(0.125, rel=1e-6)
+    np.testing.assert_allclose(np.asarray(dr.grad(s)), [-1 / 6, 0, 0], rtol=1e-6)
+
+
+def test_solid_behind_twin_agrees():
+    from mitnerf.reference.train.losses import solid_behind as solid_behind_torch
+    from mitnerf.train.losses import solid_behind
+    rng = np.random.default_rng(2)
+    sigma = rng.uniform(0, 8, 12).astype(np.float32)
+    hit = (rng.uniform(size=12) < 0.6).astype(np.float32)
+    S = Float(sigma)
+    dr.enable_grad(S)
+    loss = solid_behind(S, Float(hit), 3.0)
+    dr.backward(loss)
+    ts = torch.tensor(sigma, requires_grad=True)
+    tl = solid_behind_torch(ts, torch.from_numpy(hit), 3.0)
+    tl.backward()
+    assert float(loss[0]) == pytest.approx(float(tl.detach()), rel=1e-6)
+    np.testing.assert_allclose(np.asarray(dr.grad(S)), ts.grad.numpy(), rtol=1e-6, atol=1e-8)

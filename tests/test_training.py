@@ -26,6 +26,7 @@ def test_a_short_run_lowers_the_loss_threefold(bunny_small, backend):
 
 
 OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "free space": dict(free_space_weight=0.5),
+           "solid": dict(solid_weight=0.5),
            "fine": dict(n_fine=16),
            "occupancy": {"occupancy.enabled": True, "occupancy.warmup": 4, "occupancy.update_every": 4,
                          "occupancy.resolution": 32},
@@ -37,7 +38,7 @@ OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "free space": dict(fre
 @pytest.mark.parametrize("family", ["vanilla", "grid", "hashgrid"])
 def test_engines_agree_step_by_step(bunny_small, family, option):
     """Same weights, batches and jitter: the loss curves coincide, for every field family with
-    depth supervision, the free-space loss, a fine pass or the occupancy grid (this caught Dr.Jit 1.5.0's Adam
+    depth supervision, the free-space and solid losses, a fine pass or the occupancy grid (this caught Dr.Jit 1.5.0's Adam
     scaling an array learning rate in place, and a torch engine without depth samples)."""
     recipe = small(f"{family}-2d", **OPTIONS[option])
     if family == "grid":
@@ -162,8 +163,20 @@ def test_the_free_space_loss_sees_the_initial_fog(bunny_small):
     free-space loss penalises, so the first step's loss is larger with it on than off."""
     ds, losses = bunny_small, []
     for weight in (0.0, 0.5):
-        recipe = small("grid-2d", free_space_weight=weight)
+        recipe = small("grid-2d", free_space_weight=weight, solid_weight=0.0)
         be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
         be.set_data(ds["train"].rays((0, 0, 0)))
         losses.append(be.read(be.step(0, step_seed(0, 0), 0.0))[0])
     assert losses[1] > losses[0] + 0.01, losses
+
+
+def test_the_solid_loss_sees_the_empty_inside(bunny_small):
+    """The initial density (0.31) is below the level of matter: behind the measured depth the solid loss
+    penalises it, so the first step's loss is larger with it on than off."""
+    ds, losses = bunny_small, []
+    for weight in (0.0, 0.5):
+        recipe = small("grid-2d", solid_weight=weight, free_space_weight=0.0)
+        be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
+        be.set_data(ds["train"].rays((0, 0, 0)))
+        losses.append(be.read(be.step(0, step_seed(0, 0), 0.0))[0])
+    assert losses[1] > losses[0] + 0.1, losses

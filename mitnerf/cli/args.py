@@ -70,6 +70,8 @@ OVERRIDES = [
      "width of the depth loss's Gaussian (world units)"),
     ("--free-space-weight", "free_space_weight", dict(type=number(False, 0, 1e6)),
      "weight of the free-space loss on the dataset's depth or alpha (0: off)"),
+    ("--solid-weight", "solid_weight", dict(type=number(False, 0, 1e6)),
+     "weight of the solid-behind-the-surface loss on the dataset's depth (0: off)"),
     ("--distortion-weight", "distortion_weight", dict(type=number(False, 0, 1e6)),
      "weight of mip-NeRF 360's distortion loss (0: off)"),
     ("--opacity-weight", "opacity_weight", dict(type=number(False, 0, 1e6)), "weight of the opacity entropy (0: off)"),

@@ -8,6 +8,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from ..data.dataset import RaySet
+from ..geometry.mesh import LEVEL
 from ..rng import uniform_np
 from .config import ModelConfig, TrainConfig
 
@@ -21,9 +22,10 @@ def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
     return fields
 
 
-def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, free, regularizer):
-    """The final pass's MSE, the fields' regularisers, and the coarse, depth, free-space, distortion and opacity terms
-    with their ``cfg`` weights; ``ops``: the engine's losses (:mod:`mitnerf.train.losses` or its twin)."""
+def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, free, behind, regularizer):
+    """The final pass's MSE, the fields' regularisers, and the coarse, depth, free-space, solid, distortion and
+    opacity terms with their ``cfg`` weights; ``ops``: the engine's losses (:mod:`mitnerf.train.losses` or its
+    twin); ``behind``: the density at :func:`behind_depth`'s points (None when the solid loss is off)."""
     final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
     loss = ops.mse(final.rgb, target)
     if outs.get("fine") is not None and cfg.coarse_weight > 0:
@@ -36,6 +38,8 @@ def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth
     if cfg.free_space_weight > 0:
         loss = loss + cfg.free_space_weight * ops.free_space(final.weights, t, delta, free, n_final,
                                                              cfg.free_space_margin)
+    if cfg.solid_weight > 0:
+        loss = loss + cfg.solid_weight * ops.solid_behind(behind, hit, LEVEL)
     if cfg.distortion_weight > 0:
         loss = loss + cfg.distortion_weight * ops.distortion(final.weights, t, delta, n_final)
     if cfg.opacity_weight > 0:
@@ -50,6 +54,16 @@ def pixel_offsets(spp: int, square: bool) -> list[tuple[float, float]]:
         return [((i + 0.5) / spp - 0.5, 0.0) for i in range(spp)]
     k = max(1, round(spp ** 0.5))
     return [((i + 0.5) / k - 0.5, (j + 0.5) / k - 0.5) for i in range(k) for j in range(k)]
+
+
+def behind_depth(u, depth, thickness: float):
+    """Distances along pixel-centre rays behind their measured ``depth``, ``u`` uniform in [0, 1): the
+    solid loss's points (Dr.Jit or numpy alike)."""
+    return depth + (0.1 + 0.9 * u) * thickness
+
+
+SOLID_SALT = 0x3C6EF372
+"""Seed salt of the solid loss's random numbers (both engines)."""
 
 
 def jitter_np(seed: int, directions: np.ndarray, footprint: np.ndarray) -> np.ndarray:

@@ -17,7 +17,7 @@ from ..render.occupancy import OccupancyGrid
 from ..render.pipeline import Model, final
 from ..rng import hash_u32, uniform
 from . import losses
-from .backend import Backend, model_fields, training_loss
+from .backend import SOLID_SALT, Backend, behind_depth, model_fields, training_loss
 
 
 def columns(a: np.ndarray) -> list:
@@ -81,9 +81,13 @@ class DrJitBackend(Backend):
                 d = [di * inv for di in d]
             outs = model.render(params, g(data["origins"]), d, near, far, seed, training=True, weights=use_weights,
                                 occupied=occupied)
-            loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), g(data["depth"])[0], g(data["hit"])[0],
-                                 g(data["free"])[0],
-                                 model.regularizer(params, seed))
+            depth, behind = g(data["depth"])[0], None
+            if cfg.solid_weight > 0:            # points behind the measured depth on pixel-centre rays
+                t = behind_depth(uniform(seed ^ SOLID_SALT, dr.arange(UInt32, B), UInt32(0)), depth,
+                                 cfg.solid_thickness)
+                behind = model.density(params, [o + t * di for o, di in zip(g(data["origins"]), g(data["directions"]))])
+            loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), depth, g(data["hit"])[0],
+                                 g(data["free"])[0], behind, model.regularizer(params, seed))
             dr.backward(loss)
             bad = [dr.count(~dr.isfinite(dr.grad(params[k]).array if dr.is_tensor_v(params[k])
                                          else dr.grad(params[k]))) for k in opt.keys()]

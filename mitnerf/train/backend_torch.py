@@ -10,8 +10,8 @@ from ..reference.fields import make_field
 from ..reference.render.occupancy import OccupancyGrid
 from ..reference.render.pipeline import Model
 from ..reference.train import losses
-from ..rng import batch_indices
-from .backend import Backend, jitter_np, model_fields, training_loss
+from ..rng import batch_indices, uniform_np
+from .backend import SOLID_SALT, Backend, behind_depth, jitter_np, model_fields, training_loss
 from .backend_drjit import build_model
 
 
@@ -59,8 +59,14 @@ class TorchBackend(Backend):
             d = torch.from_numpy(jitter_np(seed, d.numpy(), b["footprint"].numpy()).astype(np.float32))
         outs = self.model.render(b["origins"], d, self.near, self.far, seed, training=True,
                                  weights=self.cfg.needs_weights, occupancy=self.occupancy)
+        behind = None
+        if self.cfg.solid_weight > 0:           # points behind the measured depth on pixel-centre rays
+            n = len(b["depth"])
+            u = uniform_np(seed ^ SOLID_SALT, np.arange(n, dtype=np.uint32), np.zeros(n, np.uint32))
+            t = behind_depth(torch.from_numpy(u), b["depth"], self.cfg.solid_thickness)
+            behind = self.model.density(b["origins"] + t[:, None] * b["directions"])
         loss = training_loss(self.cfg, self.n_final, losses, outs, b["target"], b["depth"], b["hit"], b["free"],
-                             self.model.regularizer(seed))
+                             behind, self.model.regularizer(seed))
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
         bad = next((n for n, p in self.model.named_parameters()

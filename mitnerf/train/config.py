@@ -68,6 +68,11 @@ class TrainConfig:
     depth or alpha."""
     free_space_margin: float = 0.01
     """Distance before the measured depth within which the free-space loss leaves density alone (world units)."""
+    solid_weight: float = 0.0
+    """Weight of the solid-behind-the-surface loss: matter for ``solid_thickness`` behind the dataset's depth
+    (``mitnerf.train.losses``), so the density encloses a solid; 0: off, and nothing without depth."""
+    solid_thickness: float = 0.05
+    """How far behind the measured depth the solid loss draws its points (world units)."""
     distortion_weight: float = 0.0
     """Weight of mip-NeRF 360's distortion loss (floaters, fill-in); 0: off."""
     opacity_weight: float = 0.0
@@ -115,6 +120,8 @@ class TrainConfig:
         check("distortion_weight", self.distortion_weight, 0, 1e6, flag="--distortion-weight")
         check("free_space_weight", self.free_space_weight, 0, 1e6, flag="--free-space-weight")
         check("free_space_margin", self.free_space_margin, 0, 1e6)
+        check("solid_weight", self.solid_weight, 0, 1e6, flag="--solid-weight")
+        check("solid_thickness", self.solid_thickness, 0, 1e6, strict_lo=True)
         check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
         check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
         check("val_views", self.val_views, 1, 10 ** 6, integer=True)

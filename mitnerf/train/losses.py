@@ -16,6 +16,12 @@ before *F* - *m* is a fill-in or a floater: :math:`\mathcal L_{free} = \sum_{i:\
 the mean over the rays that have an *F* (*F* > 0). It says nothing about where the surface is within the
 margin *m*, nor about anything behind it.
 
+**Solid behind the surface.** An opaque object's matter goes on behind the surface that the depth measured.
+At a point drawn on each pixel-centre ray at :math:`t \in [D + 0.1\tau, D + \tau]` (:math:`\tau` the
+thickness), :math:`\mathcal L_{solid} = (\max(0, 1 - \sigma / \sigma_s))^2` with :math:`\sigma_s` the
+density the geometry metrics take for matter (:data:`mitnerf.geometry.mesh.LEVEL`), the mean over hit rays:
+the density then encloses a solid rather than a shell with unseen, empty inside.
+
 **Opacity entropy.** :math:`-(A \log A + (1 - A) \log(1 - A))` per ray, the mean over rays."""
 
 from __future__ import annotations
@@ -52,6 +58,12 @@ def free_space(weights: Float, t: Float, delta: Float, free: Float, N: int, marg
     per_ray = dr.block_sum(dr.select(before, weights, 0.0), N)
     known = dr.select(free > 0, 1.0, 0.0)
     return dr.sum(per_ray * known) / dr.maximum(dr.sum(known), 1.0)
+
+
+def solid_behind(sigma: Float, hit: Float, level: float) -> Float:
+    """Mean over hit rays of ``max(0, 1 - sigma / level)^2``; ``sigma, hit``: ``[n_rays]``."""
+    short = dr.maximum(1.0 - sigma * (1.0 / level), 0.0)
+    return dr.sum(short * short * hit) / dr.maximum(dr.sum(hit), 1.0)
 
 
 def mse(rgb: list, target: list) -> Float:

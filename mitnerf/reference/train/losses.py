@@ -42,3 +42,9 @@ def free_space(weights, t, delta, free, N: int, margin: float) -> torch.Tensor:
     per_ray = torch.where(before, weights, torch.zeros_like(weights)).sum(1)
     known = (free > 0).to(weights.dtype)
     return (per_ray * known).sum() / torch.clamp(known.sum(), min=1.0)
+
+
+def solid_behind(sigma, hit, level: float) -> torch.Tensor:
+    """``sigma, hit [n_rays]``."""
+    short = torch.clamp(1.0 - sigma / level, min=0.0)
+    return (short * short * hit).sum() / torch.clamp(hit.sum(), min=1.0)
