@@ -99,8 +99,9 @@ def test_the_last_good_weights_survive_a_nan(bunny_small):
         np.testing.assert_array_equal(kept[k], good[k])
 
 
-def test_a_dead_field_is_reported_as_collapsed(bunny_small):
-    dead = small(density_activation="relu", density_bias=-100.0, iters=60, val_every=60, warmup=10)
+@pytest.mark.parametrize("val_every", [60, 0], ids=["found by the loop's validation", "found by the last one"])
+def test_a_dead_field_is_reported_as_collapsed(bunny_small, val_every):
+    dead = small(density_activation="relu", density_bias=-100.0, iters=60, val_every=val_every, warmup=10)
     _, rec = fit_and_evaluate(bunny_small, dead, "drjit")
     assert rec.status == "collapsed" and "empty" in rec.reason
     s = bunny_small["test"]

@@ -100,6 +100,8 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     try:
         run_loop(be.step, be.read, cfg, run.state, validate if val is not None else None,
                  desc=f"fit {recipe.name} ({be.name})")
+        if val is not None and run.state.history["val_step"][-1:] != [run.state.step]:
+            validate(run.state.step)            # the last step's validation, unless the loop's was the last
     except (TrainingFailed, Interrupted) as exc:
         if isinstance(exc, TrainingFailed) and run.snapshot is not None:
             be.set_weights(run.snapshot)
@@ -107,8 +109,6 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
                         f"(validation {run.best['val_psnr']:.2f} dB)",)
         exc.run = run
         raise
-    if val is not None and run.state.history["val_step"][-1:] != [run.state.step]:
-        validate(run.state.step)
     last = run.state.history["val_psnr"][-1] if val is not None else None
     if cfg.keep_best and run.best and last is not None and run.best["step"] != run.state.step \
             and run.best["val_psnr"] > last:
