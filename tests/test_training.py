@@ -181,3 +181,16 @@ def test_the_solid_loss_sees_the_empty_inside(bunny_small):
         be.set_data(ds["train"].rays((0, 0, 0)))
         losses.append(be.read(be.step(0, step_seed(0, 0), 0.0))[0])
     assert losses[1] > losses[0] + 0.1, losses
+
+
+def test_a_setting_written_at_its_value_is_the_same_recipe():
+    """Overriding a setting with the value it has (the recipe's, or the field's default) changes nothing,
+    so the recipe keeps its name; a real change gets the ``+``."""
+    from mitnerf.train.recipes import get_recipe
+
+    base = get_recipe("grid-3d")
+    assert "tv_samples" not in base.model.field_args
+    same = base.override(**{k: base.get(k) for k in ("view_dependent", "free_space_weight", "tv_samples")})
+    assert same.name == "grid-3d" and same.essence() == base.essence()
+    changed = base.override(view_dependent=not base.get("view_dependent"))
+    assert changed.name == "grid-3d+" and changed.essence() != base.essence()

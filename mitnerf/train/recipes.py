@@ -73,8 +73,11 @@ class Recipe:
         return getattr(field_config(self.model.field, **self.model.field_args, dim=self.dim), key)
 
     def essence(self) -> dict:
-        """The settings that change what is trained (not progress bars or thread counts)."""
+        """The settings that change what is trained (not progress bars or thread counts); field settings
+        with their defaults filled in, so a setting written at its default value changes nothing."""
         d = self.to_dict()
+        full = dataclasses.asdict(field_config(self.model.field, **self.model.field_args, dim=self.dim))
+        d["model"]["field_args"] = {k: v for k, v in full.items() if k != "dim"}
         d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads")}
         return {k: v for k, v in d.items() if k not in ("name", "about")}
 
