@@ -12,6 +12,14 @@ from mitnerf.reference.train.losses import depth_kl as depth_kl_torch
 from mitnerf.train.losses import EPS, depth_kl
 
 
+def random_samples(rng, n: int, N: int):
+    """Sorted sample distances in [1, 5) ``t``, their intervals ``delta`` up to 5 and weights ``w`` summing to 0.9
+    per ray: ``[n, N]`` each."""
+    t = np.sort(rng.uniform(1, 5, (n, N)), axis=1).astype(np.float32)
+    delta = np.diff(np.c_[t, np.full(n, 5.0)], axis=1).astype(np.float32)
+    return t, delta, rng.dirichlet(np.ones(N), n).astype(np.float32) * 0.9
+
+
 def test_depth_kl_by_hand():
     # one ray, samples at t = 1, 2 with delta = 1, weights w = (0.6, 0.3); depth D = 1, sigma = 1:
     #   q(1) = 1/sqrt(2 pi) = 0.398942, log q(1) = -0.918939
@@ -30,11 +38,8 @@ def test_depth_kl_by_hand():
 
 
 def test_rays_without_depth_do_not_count_and_the_twin_agrees():
-    rng = np.random.default_rng(0)
-    n, N = 6, 16
-    t = np.sort(rng.uniform(1, 5, (n, N)), axis=1).astype(np.float32)
-    delta = np.diff(np.c_[t, np.full(n, 5.0)], axis=1).astype(np.float32)
-    w = rng.dirichlet(np.ones(N), n).astype(np.float32) * 0.9
+    rng, n, N = np.random.default_rng(0), 6, 16
+    t, delta, w = random_samples(rng, n, N)
     depth = rng.uniform(2, 4, n).astype(np.float32)
     hit = np.array([1, 1, 0, 1, 0, 1], np.float32)
     W = Float(w.ravel())
@@ -81,11 +86,8 @@ def test_free_space_by_hand():
 def test_free_space_skips_unknown_rays_and_the_twin_agrees():
     from mitnerf.reference.train.losses import free_space as free_space_torch
     from mitnerf.train.losses import free_space
-    rng = np.random.default_rng(1)
-    n, N = 6, 16
-    t = np.sort(rng.uniform(1, 5, (n, N)), axis=1).astype(np.float32)
-    delta = np.diff(np.c_[t, np.full(n, 5.0)], axis=1).astype(np.float32)
-    w = rng.dirichlet(np.ones(N), n).astype(np.float32) * 0.9
+    rng, n, N = np.random.default_rng(1), 6, 16
+    t, delta, w = random_samples(rng, n, N)
     free = np.array([2.5, 0.0, np.inf, 3.0, 0.0, 4.2], np.float32)     # 0: unknown
     W = Float(w.ravel())
     dr.enable_grad(W)

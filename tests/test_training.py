@@ -159,27 +159,25 @@ def test_check_backends_script_passes():
     assert check_backends.main(["--dim", "3", "--rays", "16", "--samples", "12", "--fine", "0", "--width", "8"]) == 0
 
 
+def first_loss(ds, **overrides) -> float:
+    """The loss of the first training step of a small ``grid-2d`` with ``overrides`` on ``ds``."""
+    recipe = small("grid-2d", **overrides)
+    be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
+    be.set_data(ds["train"].rays((0, 0, 0)))
+    return be.read(be.step(0, step_seed(0, 0), 0.0))[0]
+
+
 def test_the_free_space_loss_sees_the_initial_fog(bunny_small):
     """The initial density is a thin fog everywhere: in front of the measured depth it is what the
     free-space loss penalises, so the first step's loss is larger with it on than off."""
-    ds, losses = bunny_small, []
-    for weight in (0.0, 0.5):
-        recipe = small("grid-2d", free_space_weight=weight, solid_weight=0.0)
-        be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
-        be.set_data(ds["train"].rays((0, 0, 0)))
-        losses.append(be.read(be.step(0, step_seed(0, 0), 0.0))[0])
+    losses = [first_loss(bunny_small, free_space_weight=w, solid_weight=0.0) for w in (0.0, 0.5)]
     assert losses[1] > losses[0] + 0.01, losses
 
 
 def test_the_solid_loss_sees_the_empty_inside(bunny_small):
     """The initial density (0.31) is below the level of matter: behind the measured depth the solid loss
     penalises it, so the first step's loss is larger with it on than off."""
-    ds, losses = bunny_small, []
-    for weight in (0.0, 0.5):
-        recipe = small("grid-2d", solid_weight=weight, free_space_weight=0.0)
-        be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
-        be.set_data(ds["train"].rays((0, 0, 0)))
-        losses.append(be.read(be.step(0, step_seed(0, 0), 0.0))[0])
+    losses = [first_loss(bunny_small, solid_weight=w, free_space_weight=0.0) for w in (0.0, 0.5)]
     assert losses[1] > losses[0] + 0.1, losses
 
 
