@@ -65,7 +65,8 @@ class TrainConfig:
     free_space_weight: float = 0.0
     """Weight of the free-space loss: no density before the depth the dataset measured, nor anywhere on a ray
     whose pixel and neighbours miss (``mitnerf.train.losses``); 0: off, and nothing where the data has no
-    depth or alpha."""
+    depth or alpha. On in the dense-grid recipes only: ``benchmarks/fit_table.py`` measures it on every family,
+    and it empties the MLP's density and costs the hash grid PSNR there."""
     free_space_margin: float = 0.01
     """Distance before the measured depth within which the free-space loss leaves density alone (world units)."""
     solid_weight: float = 0.0
