@@ -69,9 +69,9 @@ def row(ds, recipe, label: str, extra_time: float = 0.0) -> dict:
 
 def show(scene: str, rows: list[dict], dim: int) -> None:
     geo = "IoU" if dim == 2 else "Chamfer"
-    print(f"\n{scene}\n{'run':<34} {'PSNR':>6} {'SSIM':>6} {geo:>8} {'params':>9} {'s':>6}  status")
+    print(f"\n{scene}\n{'run':<54} {'PSNR':>6} {'SSIM':>6} {geo:>8} {'params':>9} {'s':>6}  status")
     for r in rows:
-        print(f"{r['run']:<34} {r['psnr']:6.2f} {r['ssim']:6.3f} {r['geometry']:8.4f} {r['params']:9d} "
+        print(f"{r['run']:<54} {r['psnr']:6.2f} {r['ssim']:6.3f} {r['geometry']:8.4f} {r['params']:9d} "
               f"{r['seconds']:6.1f}  {r['status']}", flush=True)
 
 
@@ -94,6 +94,12 @@ def table(ds, budget: float, auto: bool, options=tuple(OPTIONS), families=FAMILI
     return rows
 
 
+def joined(old: str, new: str) -> str:
+    """The commands that made an entry: the recorded ones, then ``new`` (once)."""
+    parts = old.split(" && ")
+    return " && ".join([p for p in parts if p != new] + [new])
+
+
 def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTIONS)) -> tuple[list[dict], str]:
     """The table of one scene and the command that made it: every row, or with ``--redo`` the named families'
     (and ``auto``) rows anew and the others as recorded."""
@@ -107,12 +113,28 @@ def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTION
     kept = [r for r in old["values"]["rows"] if r["run"].split(",")[0] not in args.redo]
     order = {f: i for i, f in enumerate((*FAMILIES, "auto"))}
     rows = sorted(kept + new, key=lambda r: order[r["run"].split(",")[0]])          # stable: options keep their order
-    return rows, old["command"].split(" && ")[0] + " && " + command
+    return rows, (joined(old["command"], command) if kept else command)
+
+
+def record_longer(scene: str, short: float, long: float, args) -> None:
+    """Record one scene's pair in ``fits/longer`` at once (a long run is not lost to a later failure); with
+    ``--redo`` the other scenes' pairs stay as recorded."""
+    command = ("python benchmarks/fit_table.py " + " ".join(args.argv)).strip()
+    old = load_results().get("fits/longer") if args.redo else None
+    longer = {k: v for k, v in (old["values"] if old else {}).items() if k != scene}
+    if longer:
+        command = joined(old["command"], command)
+    longer[scene] = {"short": short, "long": long}
+    worst = min(v["long"] - v["short"] for v in longer.values())
+    record_result("fits/longer", longer,
+                  f"default 2D recipe, {args.budget:g} s -> {args.long:g} s: test PSNR change "
+                  + ", ".join(f"{s} {v['long'] - v['short']:+.2f} dB" for s, v in longer.items())
+                  + (" (never lower)" if worst >= 0 else " (lower on some scene)"), command)
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scenes", nargs="+", default=["bunny", "bunny_glossy", "square_concave", "tu"])
+    p.add_argument("--scenes", nargs="*", default=["bunny", "bunny_glossy", "square_concave", "tu"])
     p.add_argument("--budget", type=float, default=10.0)
     p.add_argument("--budget-3d", type=float, default=60.0)
     p.add_argument("--long", type=float, default=300.0)
@@ -123,14 +145,13 @@ def main(argv=None) -> int:
                    "rows (and the auto rows, the longer runs) after a change to them, keeping the others as recorded")
     args = p.parse_args(argv)
     args.argv = argv if argv is not None else sys.argv[1:]
-    longer = {}
     for scene in args.scenes:
         ds = dataset(scene, 2)
         rows, command = rows_for(f"fits/{scene}", ds, args.budget, args, not args.no_auto)
         show(scene, rows, 2)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
         auto = next((r for r in rows if r["run"] == "auto"), None)
-        record_result(f"fits/{scene}", {"rows": rows},
+        record_result(f"fits/{scene}", {"rows": rows, "geometry": "IoU"},
                       f"best {best['run']} {best['psnr']:.2f} dB, IoU {best['geometry']:.3f} in {args.budget:g} s"
                       + (f"; auto {auto['psnr']:.2f} dB, IoU {auto['geometry']:.3f} ({auto['recipe']})" if auto else ""),
                       command)
@@ -139,15 +160,9 @@ def main(argv=None) -> int:
             short = row(ds, base.override(time_budget=args.budget, progress=False), f"{base.name}, {args.budget:g} s")
             long = row(ds, base.override(time_budget=args.long, iters=10 ** 6, progress=False),
                        f"{base.name}, {args.long:g} s")
-            longer[scene] = {"short": short["psnr"], "long": long["psnr"]}
             print(f"  longer training: {short['psnr']:.2f} dB at {args.budget:g} s -> {long['psnr']:.2f} dB at "
                   f"{args.long:g} s", flush=True)
-    if longer:
-        worst = min(v["long"] - v["short"] for v in longer.values())
-        record_result("fits/longer", longer,
-                      f"default 2D recipe, {args.budget:g} s -> {args.long:g} s: test PSNR change "
-                      + ", ".join(f"{s} {v['long'] - v['short']:+.2f} dB" for s, v in longer.items())
-                      + (" (never lower)" if worst >= 0 else " (lower on some scene)"), command)
+            record_longer(scene, short["psnr"], long["psnr"], args)
     if not args.no_3d and set(args.redo or FAMILIES) & set(FAMILIES):
         ds = dataset("vase_glossy", 3)
         rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False,
@@ -155,7 +170,7 @@ def main(argv=None) -> int:
                                   "view dep. + reg. + free space + solid"))
         show("vase_glossy (3D, 25 views)", rows, 3)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
-        record_result("fits/vase_glossy", {"rows": rows},
+        record_result("fits/vase_glossy", {"rows": rows, "geometry": "Chamfer"},
                       f"best {best['run']} {best['psnr']:.2f} dB, Chamfer {best['geometry']:.4f} in {args.budget_3d:g} s",
                       command)
     return 0

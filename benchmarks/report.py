@@ -4,7 +4,7 @@ Every figure lives in ``results.json`` (written by the benchmarks and experiment
 through :func:`mitnerf.results.record_result`, each with the command and the machine that
 produced it). This script renders it:
 
-* ``RESULTS.md``: every entry, grouped by area, with its command, machine and date;
+* ``RESULTS.md``: every entry, grouped by area, with its command, machine and date, and the fit table's rows;
 * the README's results table, between ``<!-- results:begin -->`` and ``<!-- results:end -->``
   (the entries whose key is listed in ``README_KEYS``);
 * ``REPRODUCTION.md`` (:mod:`mitnerf.experiments.reproduction`: every claim of the two source
@@ -36,6 +36,16 @@ def table(entries: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def rows_table(key: str, values: dict) -> str:
+    """The rows of a ``fits/<scene>`` entry (one per fitted option set) as a table."""
+    rows, geo = values["rows"], values["geometry"]
+    lines = [f"`{key}`:\n", f"| run | PSNR | SSIM | {geo} | parameters | seconds | status |",
+             "|---|---|---|---|---|---|---|"]
+    lines += [f"| {r['run']} | {r['psnr']:.2f} | {r['ssim']:.3f} | {r['geometry']:.4f} | {r['params']} | "
+              f"{r['seconds']:.1f} | {r['status']} |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
 def main() -> int:
     results = load_results()
     if not results:
@@ -48,6 +58,8 @@ def main() -> int:
             "names the command that produced it and the machine it ran on. Do not edit by hand.\n"]
     for area, entries in groups.items():
         text += [f"## {area}\n", table(entries)]
+        text += [rows_table(k, e["values"]) for k, e in entries.items() if k.startswith("fits/")
+                 and isinstance(e.get("values"), dict) and isinstance(e["values"].get("rows"), list)]
     (ROOT / "RESULTS.md").write_text("\n".join(text))
     readme = ROOT / "README.md"
     chosen = {k: results[k] for k in README_KEYS if k in results}
