@@ -113,18 +113,17 @@ def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTION
     kept = [r for r in old["values"]["rows"] if r["run"].split(",")[0] not in args.redo]
     order = {f: i for i, f in enumerate((*FAMILIES, "auto"))}
     rows = sorted(kept + new, key=lambda r: order[r["run"].split(",")[0]])          # stable: options keep their order
+    if not new:                         # nothing of this table redone (--redo longer): its command stays
+        return rows, old["command"]
     return rows, (joined(old["command"], command) if kept else command)
 
 
-def record_longer(scene: str, short: float, long: float, args) -> None:
-    """Record one scene's pair in ``fits/longer`` at once (a long run is not lost to a later failure); with
-    ``--redo`` the other scenes' pairs stay as recorded."""
+def record_longer(longer: dict, old: dict | None, args) -> None:
+    """Record ``fits/longer`` (``{scene: {"short", "long"}}``) after each scene, so a long run is not lost
+    to a later failure; ``old``: the recorded entry whose other scenes a ``--redo`` keeps."""
     command = ("python benchmarks/fit_table.py " + " ".join(args.argv)).strip()
-    old = load_results().get("fits/longer") if args.redo else None
-    longer = {k: v for k, v in (old["values"] if old else {}).items() if k != scene}
-    if longer:
+    if old and set(old["values"]) - set(args.scenes):
         command = joined(old["command"], command)
-    longer[scene] = {"short": short, "long": long}
     worst = min(v["long"] - v["short"] for v in longer.values())
     record_result("fits/longer", longer,
                   f"default 2D recipe, {args.budget:g} s -> {args.long:g} s: test PSNR change "
@@ -145,6 +144,8 @@ def main(argv=None) -> int:
                    "rows (and the auto rows, the longer runs) after a change to them, keeping the others as recorded")
     args = p.parse_args(argv)
     args.argv = argv if argv is not None else sys.argv[1:]
+    old_longer = load_results().get("fits/longer") if args.redo else None
+    longer = dict(old_longer["values"]) if old_longer else {}
     for scene in args.scenes:
         ds = dataset(scene, 2)
         rows, command = rows_for(f"fits/{scene}", ds, args.budget, args, not args.no_auto)
@@ -162,7 +163,8 @@ def main(argv=None) -> int:
                        f"{base.name}, {args.long:g} s")
             print(f"  longer training: {short['psnr']:.2f} dB at {args.budget:g} s -> {long['psnr']:.2f} dB at "
                   f"{args.long:g} s", flush=True)
-            record_longer(scene, short["psnr"], long["psnr"], args)
+            longer[scene] = {"short": short["psnr"], "long": long["psnr"]}
+            record_longer(longer, old_longer, args)
     if not args.no_3d and set(args.redo or FAMILIES) & set(FAMILIES):
         ds = dataset("vase_glossy", 3)
         rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False,
