@@ -103,7 +103,7 @@ def joined(old: str, new: str) -> str:
 def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTIONS)) -> tuple[list[dict], str]:
     """The table of one scene and the command that made it: every row, or with ``--redo`` the named families'
     (and ``auto``) rows anew and the others as recorded."""
-    command = ("python benchmarks/fit_table.py " + " ".join(args.argv)).strip()
+    command = args.command
     if not args.redo:
         return table(ds, budget, auto, options), command
     old = load_results().get(key)
@@ -121,7 +121,7 @@ def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTION
 def record_longer(longer: dict, old: dict | None, args) -> None:
     """Record ``fits/longer`` (``{scene: {"short", "long"}}``) after each scene, so a long run is not lost
     to a later failure; ``old``: the recorded entry whose other scenes a ``--redo`` keeps."""
-    command = ("python benchmarks/fit_table.py " + " ".join(args.argv)).strip()
+    command = args.command
     if old and set(old["values"]) - set(args.scenes):
         command = joined(old["command"], command)
     worst = min(v["long"] - v["short"] for v in longer.values())
@@ -143,7 +143,7 @@ def main(argv=None) -> int:
     p.add_argument("--redo", nargs="+", choices=(*FAMILIES, "auto", "longer"), help="rerun only these families' "
                    "rows (and the auto rows, the longer runs) after a change to them, keeping the others as recorded")
     args = p.parse_args(argv)
-    args.argv = argv if argv is not None else sys.argv[1:]
+    args.command = " ".join(["python benchmarks/fit_table.py", *(argv if argv is not None else sys.argv[1:])])
     old_longer = load_results().get("fits/longer") if args.redo else None
     longer = dict(old_longer["values"]) if old_longer else {}
     for scene in args.scenes:

@@ -72,20 +72,21 @@ class DrJitBackend(Backend):
             idx = hash_u32(hash_u32(seed) ^ dr.arange(UInt32, B)) % n_pixels
             g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
             params = {k: opt[k] for k in opt.keys()}
-            d = g(data["directions"])
+            o = g(data["origins"])
+            d = d_centre = g(data["directions"])
             if jitter:                  # a ray through a random point of the pixel (twin: backend.jitter_np)
                 a, b = (uniform(seed ^ 0x68E31DA4, dr.arange(UInt32, B), UInt32(k)) - 0.5 for k in (0, 1))
                 fp = g(data["footprint"])
                 d = [d[i] + a * fp[i] + b * fp[D + i] for i in range(D)]
                 inv = dr.rsqrt(sum(di * di for di in d))
                 d = [di * inv for di in d]
-            outs = model.render(params, g(data["origins"]), d, near, far, seed, training=True, weights=use_weights,
+            outs = model.render(params, o, d, near, far, seed, training=True, weights=use_weights,
                                 occupied=occupied)
             depth, behind = g(data["depth"])[0], None
             if cfg.solid_weight > 0:            # points behind the measured depth on pixel-centre rays
                 t = behind_depth(uniform(seed ^ SOLID_SALT, dr.arange(UInt32, B), UInt32(0)), depth,
                                  cfg.solid_thickness)
-                behind = model.density(params, [o + t * di for o, di in zip(g(data["origins"]), g(data["directions"]))])
+                behind = model.density(params, [oi + t * di for oi, di in zip(o, d_centre)])
             loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), depth, g(data["hit"])[0],
                                  g(data["free"])[0], behind, model.regularizer(params, seed))
             dr.backward(loss)

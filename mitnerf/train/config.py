@@ -29,9 +29,13 @@ class ModelConfig:
     def from_dict(cls, d: dict) -> "ModelConfig":
         return cls(d.get("field", "grid"), dict(d.get("field_args", {})), RenderConfig(**d.get("render", {})))
 
+    def field_config(self, dim: int):
+        """The field's config: these field settings over the family's defaults (refused with the valid ones)."""
+        return field_config(self.field, **{**self.field_args, "dim": dim})
+
     def validate(self, dim: int) -> None:
         self.render.validate()
-        field_config(self.field, **{**self.field_args, "dim": dim})
+        self.field_config(dim)
 
 
 @dataclass

@@ -8,7 +8,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from ..errors import ConfigError
-from ..fields import FIELDS, field_config
+from ..fields import FIELDS
 from ..render.occupancy import OccupancyConfig
 from ..render.pipeline import RenderConfig
 from .config import ModelConfig, TrainConfig
@@ -70,13 +70,13 @@ class Recipe:
         """A training or field setting (the field's default when the recipe does not set it)."""
         if key in TrainConfig.__dataclass_fields__:
             return getattr(self.train, key)
-        return getattr(field_config(self.model.field, **self.model.field_args, dim=self.dim), key)
+        return getattr(self.model.field_config(self.dim), key)
 
     def essence(self) -> dict:
         """The settings that change what is trained (not progress bars or thread counts); field settings
         with their defaults filled in, so a setting written at its default value changes nothing."""
         d = self.to_dict()
-        full = dataclasses.asdict(field_config(self.model.field, **self.model.field_args, dim=self.dim))
+        full = dataclasses.asdict(self.model.field_config(self.dim))
         d["model"]["field_args"] = {k: v for k, v in full.items() if k != "dim"}
         d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads")}
         return {k: v for k, v in d.items() if k not in ("name", "about")}
