@@ -135,6 +135,19 @@ def test_solid_behind_by_hand():
     np.testing.assert_allclose(np.asarray(dr.grad(s)), [-1 / 6, 0, 0], rtol=1e-6)
 
 
+def test_solid_points_lie_within_each_rays_extent():
+    # depth 2, start 0.005: extent 0.15 -> [2.005, 2.15] (u = 0, 0.5: 2.005, 2.0775); an extent shorter than the
+    # start (0.002) -> its end, 2.002, whatever u; no extent -> the surface itself (the loss leaves that ray out)
+    from mitnerf.train.backend import behind_depth
+    u = np.array([0.0, 0.5, 0.9, 0.3])
+    depth, extent = np.full(4, 2.0), np.array([0.15, 0.15, 0.002, 0.0])
+    expected = [2.005, 2.0775, 2.002, 2.0]
+    np.testing.assert_allclose(behind_depth(u, depth, extent, 0.005), expected, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(behind_depth(Float(u), Float(depth), Float(extent), 0.005)), expected, rtol=1e-6)
+    np.testing.assert_allclose(behind_depth(torch.tensor(u), torch.tensor(depth), torch.tensor(extent), 0.005).numpy(),
+                               expected, rtol=1e-12)
+
+
 def test_solid_behind_twin_agrees():
     from mitnerf.reference.train.losses import solid_behind as solid_behind_torch
     from mitnerf.train.losses import solid_behind

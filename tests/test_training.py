@@ -48,7 +48,7 @@ def test_engines_agree_step_by_step(bunny_small, family, option):
     ds = bunny_small
     bes = [make_backend(b, recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far) for b in ("drjit", "torch")]
     for be in bes:
-        be.set_data(ds["train"].rays((0, 0, 0)))
+        be.set_data(ds["train"].rays((0, 0, 0), **recipe.train.ray_args()))
     lr = {"vanilla": 5e-3, "grid": 0.02, "hashgrid": 0.01}[family]
     curves = [[be.read(be.step(k, step_seed(0, k), lr))[0] for k in range(16)] for be in bes]
     np.testing.assert_allclose(curves[0], curves[1], rtol=3e-3)
@@ -163,7 +163,7 @@ def first_loss(ds, **overrides) -> float:
     """The loss of the first training step of a small ``grid-2d`` with ``overrides`` on ``ds``."""
     recipe = small("grid-2d", **overrides)
     be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
-    be.set_data(ds["train"].rays((0, 0, 0)))
+    be.set_data(ds["train"].rays((0, 0, 0), **recipe.train.ray_args()))
     return be.read(be.step(0, step_seed(0, 0), 0.0))[0]
 
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import MitnerfError
 from .cameras import Cameras
+from .carve import solid_extent
 from .color import display_color
 
 SPLITS = ("train", "val", "test")
@@ -28,6 +29,7 @@ class RaySet:
     hit: np.ndarray         # [P] 1.0 where the depth is known (the ray hits), else 0.0
     free: np.ndarray        # [P] empty along the ray up to here (:func:`free_distance`), 0 where unknown
     footprint: np.ndarray   # [P, 2, D] the pixel's extent (:meth:`Cameras.footprint`)
+    solid: np.ndarray       # [P] matter behind the depth up to here (:func:`~mitnerf.data.carve.solid_extent`), 0: none
 
     def __len__(self) -> int:
         return len(self.origins)
@@ -111,8 +113,9 @@ class Split:
         bg = np.asarray(background, np.float32)
         return self.color + (1.0 - self.alpha[..., None]) * bg
 
-    def rays(self, background) -> RaySet:
-        """Every pixel of the split as a ray, with its colour over ``background`` and its depth."""
+    def rays(self, background, solid_reach: float = 0.0, margin: float = 0.0) -> RaySet:
+        """Every pixel of the split as a ray, with its colour over ``background`` and its depth; the solid extent
+        behind the depth up to ``solid_reach`` (0: not computed), carved with free-space ``margin``."""
         o, d = self.cameras.rays()
         D = o.shape[-1]
         target = self.target(background).reshape(-1, 3)
@@ -121,10 +124,13 @@ class Split:
             depth = np.where(hit, self.depth.reshape(-1), 0.0)
         else:
             hit, depth = np.zeros(len(target), bool), np.zeros(len(target))
+        free = free_distance(self.depth, self.mask, self.alpha)
+        solid = (solid_extent(self.cameras, self.depth, hit.reshape(self.depth.shape), free, solid_reach, margin=margin)
+                 if solid_reach > 0 and self.depth is not None else np.zeros(hit.shape))
         return RaySet(o.reshape(-1, D).astype(np.float32), d.reshape(-1, D).astype(np.float32),
                       target.astype(np.float32), depth.astype(np.float32), hit.astype(np.float32),
-                      free_distance(self.depth, self.mask, self.alpha).reshape(-1).astype(np.float32),
-                      self.cameras.footprint().reshape(-1, 2, D).astype(np.float32))
+                      free.reshape(-1).astype(np.float32), self.cameras.footprint().reshape(-1, 2, D).astype(np.float32),
+                      solid.reshape(-1).astype(np.float32))
 
     def subset(self, index) -> "Split":
         pick = lambda a: None if a is None else a[index]

@@ -25,7 +25,8 @@ def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
 def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, free, behind, regularizer):
     """The final pass's MSE, the fields' regularisers, and the coarse, depth, free-space, solid, distortion and
     opacity terms with their ``cfg`` weights; ``ops``: the engine's losses (:mod:`mitnerf.train.losses` or its
-    twin); ``behind``: the density at :func:`behind_depth`'s points (None when the solid loss is off)."""
+    twin); ``behind``: the density at :func:`behind_depth`'s points and which rays have a solid extent (None when
+    the solid loss is off)."""
     final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
     loss = ops.mse(final.rgb, target)
     if outs.get("fine") is not None and cfg.coarse_weight > 0:
@@ -39,7 +40,7 @@ def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth
         loss = loss + cfg.free_space_weight * ops.free_space(final.weights, t, delta, free, n_final,
                                                              cfg.free_space_margin)
     if cfg.solid_weight > 0:
-        loss = loss + cfg.solid_weight * ops.solid_behind(behind, hit, LEVEL)
+        loss = loss + cfg.solid_weight * ops.solid_behind(*behind, LEVEL)
     if cfg.distortion_weight > 0:
         loss = loss + cfg.distortion_weight * ops.distortion(final.weights, t, delta, n_final)
     if cfg.opacity_weight > 0:
@@ -56,10 +57,13 @@ def pixel_offsets(spp: int, square: bool) -> list[tuple[float, float]]:
     return [((i + 0.5) / k - 0.5, (j + 0.5) / k - 0.5) for i in range(k) for j in range(k)]
 
 
-def behind_depth(u, depth, thickness: float):
-    """Distances along pixel-centre rays behind their measured ``depth``, ``u`` uniform in [0, 1): the
-    solid loss's points (Dr.Jit or numpy alike)."""
-    return depth + (0.1 + 0.9 * u) * thickness
+def behind_depth(u, depth, extent, start: float):
+    """Distances along pixel-centre rays behind their measured ``depth``: uniform (``u`` in [0, 1)) in
+    ``[depth + start, depth + extent]``, each ray's solid extent, or at ``depth + extent`` where the extent is
+    shorter than ``start``: the solid loss's points (Dr.Jit, torch or numpy alike)."""
+    over = extent - start
+    over = 0.5 * (over + abs(over))                  # max(extent - start, 0)
+    return depth + (extent - over) + u * over        # extent - over = min(extent, start)
 
 
 SOLID_SALT = 0x3C6EF372

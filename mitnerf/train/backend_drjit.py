@@ -55,7 +55,7 @@ class DrJitBackend(Backend):
     def set_data(self, rays: RaySet) -> None:
         # {name: columns}: a PyTree, so frozen steps see it as input
         self.data = {k: columns(getattr(rays, k).reshape(len(rays), -1))
-                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint")}
+                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint", "solid")}
         self.n_pixels = len(rays)
 
     def _new_step(self):
@@ -83,10 +83,11 @@ class DrJitBackend(Backend):
             outs = model.render(params, o, d, near, far, seed, training=True, weights=use_weights,
                                 occupied=occupied)
             depth, behind = g(data["depth"])[0], None
-            if cfg.solid_weight > 0:            # points behind the measured depth on pixel-centre rays
-                t = behind_depth(uniform(seed ^ SOLID_SALT, dr.arange(UInt32, B), UInt32(0)), depth,
-                                 cfg.solid_thickness)
-                behind = model.density(params, [oi + t * di for oi, di in zip(o, d_centre)])
+            if cfg.solid_weight > 0:            # points within the solid extent behind pixel-centre depths
+                extent = g(data["solid"])[0]
+                t = behind_depth(uniform(seed ^ SOLID_SALT, dr.arange(UInt32, B), UInt32(0)), depth, extent, cfg.solid_start)
+                behind = (model.density(params, [oi + t * di for oi, di in zip(o, d_centre)]),
+                          dr.select(extent > 0, 1.0, 0.0))
             loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), depth, g(data["hit"])[0],
                                  g(data["free"])[0], behind, model.regularizer(params, seed))
             dr.backward(loss)

@@ -43,7 +43,7 @@ class TorchBackend(Backend):
 
     def set_data(self, rays: RaySet) -> None:
         self.data = {k: torch.from_numpy(np.ascontiguousarray(getattr(rays, k)))
-                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint")}
+                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint", "solid")}
         self.n_pixels = len(rays)
 
     def step(self, index: int, seed: int, lr: float):
@@ -60,11 +60,11 @@ class TorchBackend(Backend):
         outs = self.model.render(b["origins"], d, self.near, self.far, seed, training=True,
                                  weights=self.cfg.needs_weights, occupancy=self.occupancy)
         behind = None
-        if self.cfg.solid_weight > 0:           # points behind the measured depth on pixel-centre rays
+        if self.cfg.solid_weight > 0:           # points within the solid extent behind pixel-centre depths
             n = len(b["depth"])
             u = uniform_np(seed ^ SOLID_SALT, np.arange(n, dtype=np.uint32), np.zeros(n, np.uint32))
-            t = behind_depth(torch.from_numpy(u), b["depth"], self.cfg.solid_thickness)
-            behind = self.model.density(b["origins"] + t[:, None] * b["directions"])
+            t = behind_depth(torch.from_numpy(u), b["depth"], b["solid"], self.cfg.solid_start)
+            behind = (self.model.density(b["origins"] + t[:, None] * b["directions"]), (b["solid"] > 0).float())
         loss = training_loss(self.cfg, self.n_final, losses, outs, b["target"], b["depth"], b["hit"], b["free"],
                              behind, self.model.regularizer(seed))
         self.opt.zero_grad(set_to_none=True)

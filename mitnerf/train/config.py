@@ -77,7 +77,11 @@ class TrainConfig:
     """Weight of the solid-behind-the-surface loss: matter for ``solid_thickness`` behind the dataset's depth
     (``mitnerf.train.losses``), so the density encloses a solid; 0: off, and nothing without depth."""
     solid_thickness: float = 0.05
-    """How far behind the measured depth the solid loss draws its points (world units)."""
+    """How far behind the measured depth the solid loss draws its points at most (world units): each ray's
+    reach ends where a training view's depth map shows empty space (:mod:`mitnerf.data.carve`)."""
+    solid_start: float = 0.005
+    """How far behind the measured depth the solid loss's nearest points lie (world units): less than a cell
+    of the grids, so matter begins at the surface."""
     distortion_weight: float = 0.0
     """Weight of mip-NeRF 360's distortion loss (floaters, fill-in); 0: off."""
     opacity_weight: float = 0.0
@@ -103,6 +107,10 @@ class TrainConfig:
         lr = self.lr * (self.lr_final / self.lr) ** min(max(progress, 0.0), 1.0)
         return lr * (0.1 + 0.9 * step / self.warmup) if step < self.warmup else lr
 
+    def ray_args(self) -> dict:
+        """What the training rays need computed for these losses (:meth:`~mitnerf.data.dataset.Split.rays`)."""
+        return {"solid_reach": self.solid_thickness if self.solid_weight > 0 else 0.0, "margin": self.free_space_margin}
+
     @property
     def needs_weights(self) -> bool:
         """Whether the loss needs the final pass's per-sample weights."""
@@ -127,6 +135,7 @@ class TrainConfig:
         check("free_space_margin", self.free_space_margin, 0, 1e6)
         check("solid_weight", self.solid_weight, 0, 1e6, flag="--solid-weight")
         check("solid_thickness", self.solid_thickness, 0, 1e6, strict_lo=True)
+        check("solid_start", self.solid_start, 0, 1e6)
         check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
         check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
         check("val_views", self.val_views, 1, 10 ** 6, integer=True)

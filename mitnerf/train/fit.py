@@ -73,7 +73,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
         cfg.progress = progress
     bg = recipe.model.render.background = tuple(recipe.model.render.background)
     be = make_backend(backend, recipe.model, cfg, dataset.dim, dataset.bound, dataset.near, dataset.far)
-    be.set_data(dataset["train"].rays(bg))
+    be.set_data(dataset["train"].rays(bg, **cfg.ray_args()))
     run = Run(be, recipe, dict(dataset.meta))
     if resume is not None:
         be.set_weights(resume["weights"])

@@ -17,10 +17,12 @@ the mean over the rays that have an *F* (*F* > 0). It says nothing about where t
 margin *m*, nor about anything behind it.
 
 **Solid behind the surface.** An opaque object's matter goes on behind the surface that the depth measured.
-At a point drawn on each pixel-centre ray at :math:`t \in [D + 0.1\tau, D + \tau]` (:math:`\tau` the
-thickness), :math:`\mathcal L_{solid} = (\max(0, 1 - \sigma / \sigma_s))^2` with :math:`\sigma_s` the
-density the geometry metrics take for matter (:data:`mitnerf.geometry.mesh.LEVEL`), the mean over hit rays:
-the density then encloses a solid rather than a shell with unseen, empty inside.
+At a point drawn on each pixel-centre ray at :math:`t \in [D + s_0, D + \tau]` (:math:`s_0` the start,
+:math:`\tau` the ray's solid extent: the thickness, cut where a training view shows empty space,
+:mod:`mitnerf.data.carve`), :math:`\mathcal L_{solid} = (\max(0, 1 - \sigma / \sigma_s))^2` with
+:math:`\sigma_s` the density the geometry metrics take for matter (:data:`mitnerf.geometry.mesh.LEVEL`), the
+mean over the rays with an extent: the density then encloses a solid rather than a shell with unseen, empty
+inside, and a thin part (an ear, a wall) gets no matter out of its back.
 
 **Opacity entropy.** :math:`-(A \log A + (1 - A) \log(1 - A))` per ray, the mean over rays."""
 
@@ -61,7 +63,8 @@ def free_space(weights: Float, t: Float, delta: Float, free: Float, N: int, marg
 
 
 def solid_behind(sigma: Float, hit: Float, level: float) -> Float:
-    """Mean over hit rays of ``max(0, 1 - sigma / level)^2``; ``sigma, hit``: ``[n_rays]``."""
+    """Mean over the rays with ``hit`` 1 (those with a solid extent) of ``max(0, 1 - sigma / level)^2``;
+    ``sigma, hit``: ``[n_rays]``."""
     short = dr.maximum(1.0 - sigma * (1.0 / level), 0.0)
     return dr.sum(short * short * hit) / dr.maximum(dr.sum(hit), 1.0)
 

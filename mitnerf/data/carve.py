@@ -1,0 +1,73 @@
+"""How far matter goes on behind each measured depth, as far as every view's depth map allows.
+
+A point on a pixel-centre ray behind the measured depth *D* may be inside the object, or already out of its
+back: a thin part (an ear, a wall) is no thicker than it is. Every training view says which points it knows
+to be empty, those in front of its own surface (:func:`~mitnerf.data.dataset.free_distance`). The *solid
+extent* of a ray is the largest ``s <= reach`` such that no view knows a point of ``[D, D + s]`` to be empty
+(tested at ``samples`` points: the extent is the last one before the first carved point), 0 for rays without
+a depth. It is space carving (the visual hull, with depth) along each ray, and it bounds where the solid
+loss (:mod:`mitnerf.train.losses`) asks for matter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .cameras import Cameras
+
+CHUNK = 1 << 16
+"""Points projected into every view at a time (bounds memory: ``CHUNK x views`` floats)."""
+
+
+def pixel_of(cameras: Cameras, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pixel of every camera that sees each world point: ``points [m, D]`` -> ``(row, col, inside)``, each
+    ``[n, m]``; ``inside``: the point is in front of the camera and on its image (``row``/``col`` are 0 where not)."""
+    k, f, H, W = cameras.dim, cameras.focal, cameras.height, cameras.width
+    R, o = cameras.poses[:, :k, :k], cameras.origins                          # camera-to-world
+    cam = np.einsum("nji,nmj->nmi", R, points[None] - o[:, None])          # world -> camera axes, [n, m, D]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if k == 2:                                  # forward x, up y: row i + 0.5 = H/2 - f up / forward
+            fwd = cam[..., 0]
+            row, col = np.floor(H / 2 - f * cam[..., 1] / fwd), np.zeros_like(fwd)
+        else:                                       # looks down -z; col + 0.5 = W/2 + f x / forward
+            fwd = -cam[..., 2]
+            row, col = np.floor(H / 2 - f * cam[..., 1] / fwd), np.floor(W / 2 + f * cam[..., 0] / fwd)
+    inside = (fwd > 0) & (row >= 0) & (row < H) & (col >= 0) & (col < W)
+    return np.where(inside, row, 0).astype(np.int64), np.where(inside, col, 0).astype(np.int64), inside
+
+
+def carved(cameras: Cameras, free: np.ndarray, points: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """``[m]`` bool: some view knows the point to be empty (nearer to it than its pixel's ``free`` distance,
+    ``[n, H, W]``, less ``margin``; ``free`` 0 means unknown)."""
+    out = np.zeros(len(points), bool)
+    for s in range(0, len(points), CHUNK):
+        p = points[s:s + CHUNK]
+        row, col, inside = pixel_of(cameras, p)
+        bound = free[np.arange(len(cameras))[:, None], row, col]             # [n, m]
+        dist = np.linalg.norm(p[None] - cameras.origins[:, None], axis=-1)
+        out[s:s + CHUNK] = (inside & (bound > 0) & (dist < bound - margin)).any(axis=0)
+    return out
+
+
+def solid_extent(cameras: Cameras, depth: np.ndarray, hit: np.ndarray, free: np.ndarray, reach: float,
+                 samples: int = 16, margin: float = 0.0) -> np.ndarray:
+    """``[n, H, W]`` float32: the solid extent (module docstring) of every pixel-centre ray of ``cameras``, whose
+    measured ``depth`` counts where ``hit``; ``free``: what the views know to be empty (their free distances)."""
+    o, d = cameras.rays()
+    n, H, W = depth.shape
+    rays = np.flatnonzero(hit.reshape(-1))
+    o, d = o.reshape(-1, cameras.dim)[rays], d.reshape(-1, cameras.dim)[rays]
+    D = depth.reshape(-1)[rays]
+    extent = np.full(len(rays), float(reach))
+    open_ = np.ones(len(rays), bool)                   # no carved point found yet
+    for k in range(1, samples + 1):
+        s = reach * k / samples
+        idx = np.flatnonzero(open_)
+        if not len(idx):
+            break
+        gone = carved(cameras, free, o[idx] + (D[idx] + s)[:, None] * d[idx], margin)
+        extent[idx[gone]] = reach * (k - 1) / samples
+        open_[idx[gone]] = False
+    out = np.zeros(n * H * W, np.float32)
+    out[rays] = extent
+    return out.reshape(n, H, W)
