@@ -109,7 +109,8 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
     _r("grid-2d", 2, "grid", dict(resolution=257, initial_resolution=129, upsample_at=(150,), tv_weight=1e-4,
                                   view_dependent=True, tv_color_weight=1e-2),
        dict(n_coarse=128), dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
-                                opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, **_BUDGET),
+                                opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
+                                **_BUDGET),
        "dense 2D grid, view-dependent colour, coarse to fine 129 -> 257, colour TV + distortion + opacity losses, "
        "free space and solid matter where the data has depth (free space from alpha too), 10 s: the default for 2D "
        "datasets"),
@@ -124,7 +125,7 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
                                   view_dependent=True, tv_color_weight=1e-2),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
        dict(time_budget=60.0, lr=0.05, lr_final=0.005, batch_rays=2048, distortion_weight=1e-3, opacity_weight=1e-3,
-            free_space_weight=1.0, solid_weight=0.1, **_BUDGET),
+            free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "dense voxel grid, view-dependent colour, coarse to fine 33 -> 129, occupancy grid, colour TV + distortion + "
        "opacity losses, free space and solid matter where the data has depth, 60 s: the default for 3D datasets"),
     _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4), dict(n_coarse=64, n_fine=32),
