@@ -49,7 +49,8 @@ def test_a_point_on_a_pixels_ray_projects_into_that_pixel(dim):
     rng = np.random.default_rng(dim)
     if dim == 2:
         a = rng.uniform(0, 2 * np.pi)
-        pose = [[np.cos(a), -np.sin(a), 3 * np.cos(a + np.pi)], [np.sin(a), np.cos(a), 3 * np.sin(a + np.pi)], [0, 0, 1]]
+        c, s = np.cos(a), np.sin(a)
+        pose = [[c, -s, -3 * c], [s, c, -3 * s], [0, 0, 1]]          # at -3 (c, s), looking at the origin
         cams = Cameras(np.array([pose]), 40.0, 16)
     else:
         q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
@@ -76,3 +77,13 @@ def test_training_rays_carry_their_extent(bunny_small):
     assert (rays.solid[hit] <= 0.3 + 1e-6).all() and np.median(rays.solid[hit]) == pytest.approx(0.3)
     assert (rays.solid[hit] < 0.3).any()     # some rays leave the bunny's back (its ears) within the reach
     assert not split.rays((0, 0, 0)).solid.any()      # not asked for: none
+
+
+def test_many_rays_are_carved_by_a_subset_of_the_views(bunny_small, monkeypatch):
+    # a budget too small for the 12 views: 8 of them carve, so an extent can only be longer, never shorter
+    import mitnerf.data.carve as carve
+    split = bunny_small["train"]
+    full = split.rays((0, 0, 0), solid_reach=0.3).solid
+    monkeypatch.setattr(carve, "MAX_TESTS", 1000)
+    fewer = split.rays((0, 0, 0), solid_reach=0.3).solid
+    assert (fewer >= full).all() and (fewer > full).any()

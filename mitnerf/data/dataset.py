@@ -125,12 +125,13 @@ class Split:
         else:
             hit, depth = np.zeros(len(target), bool), np.zeros(len(target))
         free = free_distance(self.depth, self.mask, self.alpha)
-        solid = (solid_extent(self.cameras, self.depth, hit.reshape(self.depth.shape), free, solid_reach, margin=margin)
-                 if solid_reach > 0 and self.depth is not None else np.zeros(hit.shape))
-        return RaySet(o.reshape(-1, D).astype(np.float32), d.reshape(-1, D).astype(np.float32),
-                      target.astype(np.float32), depth.astype(np.float32), hit.astype(np.float32),
-                      free.reshape(-1).astype(np.float32), self.cameras.footprint().reshape(-1, 2, D).astype(np.float32),
-                      solid.reshape(-1).astype(np.float32))
+        solid = np.zeros(hit.shape)
+        if solid_reach > 0 and self.depth is not None:
+            solid = solid_extent(self.cameras, self.depth, hit.reshape(self.depth.shape), free, solid_reach,
+                                 margin=margin)
+        flat = lambda a, *shape: np.asarray(a, np.float32).reshape(-1, *shape)
+        return RaySet(flat(o, D), flat(d, D), flat(target, 3), flat(depth), flat(hit), flat(free),
+                      flat(self.cameras.footprint(), 2, D), flat(solid))
 
     def subset(self, index) -> "Split":
         pick = lambda a: None if a is None else a[index]

@@ -85,7 +85,8 @@ class DrJitBackend(Backend):
             depth, behind = g(data["depth"])[0], None
             if cfg.solid_weight > 0:            # points within the solid extent behind pixel-centre depths
                 extent = g(data["solid"])[0]
-                t = behind_depth(uniform(seed ^ SOLID_SALT, dr.arange(UInt32, B), UInt32(0)), depth, extent, cfg.solid_start)
+                u = uniform(seed ^ SOLID_SALT, dr.arange(UInt32, B), UInt32(0))
+                t = behind_depth(u, depth, extent, cfg.solid_start)
                 behind = (model.density(params, [oi + t * di for oi, di in zip(o, d_centre)]),
                           dr.select(extent > 0, 1.0, 0.0))
             loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), depth, g(data["hit"])[0],
