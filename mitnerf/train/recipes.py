@@ -92,7 +92,8 @@ class Recipe:
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
         occ = ", occupancy grid" if r.occupancy.enabled else ""
         fine = f" + {r.n_fine} fine" if r.n_fine else ""
-        losses = "".join(f", {k.rsplit('_', 1)[0].replace('_', ' ')} {getattr(t, k):g}"
+        reach = {"solid_weight": f" (reach {t.solid_thickness:g})"}
+        losses = "".join(f", {k.rsplit('_', 1)[0].replace('_', ' ')} {getattr(t, k):g}{reach.get(k, '')}"
                          for k in ("depth_weight", "free_space_weight", "solid_weight", "distortion_weight",
                                    "opacity_weight")
                          if getattr(t, k))
