@@ -15,8 +15,8 @@ import numpy as np
 
 from .cameras import Cameras
 
-CHUNK = 1 << 16
-"""Points projected into every view at a time (bounds memory: ``CHUNK x views`` floats)."""
+CHUNK = 1 << 21
+"""Point-in-view tests at a time (bounds memory: about 50 bytes each)."""
 MAX_TESTS = 200_000_000
 """Point-in-view tests at most (tens of seconds on 2 cores): beyond, an evenly spaced subset of the views
 (at least 8) carves, which can only leave an extent longer."""
@@ -43,12 +43,13 @@ def carved(cameras: Cameras, free: np.ndarray, points: np.ndarray, margin: float
     """``[m]`` bool: some view knows the point to be empty (nearer to it than its pixel's ``free`` distance,
     ``[n, H, W]``, less ``margin``; ``free`` 0 means unknown)."""
     out = np.zeros(len(points), bool)
-    for s in range(0, len(points), CHUNK):
-        p = points[s:s + CHUNK]
+    step = max(1, CHUNK // len(cameras))
+    for s in range(0, len(points), step):
+        p = points[s:s + step]
         row, col, inside = pixel_of(cameras, p)
         bound = free[np.arange(len(cameras))[:, None], row, col]             # [n, m]
         dist = np.linalg.norm(p[None] - cameras.origins[:, None], axis=-1)
-        out[s:s + CHUNK] = (inside & (bound > 0) & (dist < bound - margin)).any(axis=0)
+        out[s:s + step] = (inside & (bound > 0) & (dist < bound - margin)).any(axis=0)
     return out
 
 
