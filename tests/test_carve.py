@@ -23,16 +23,17 @@ def test_a_thin_wall_is_as_thick_as_the_views_allow():
     cams = facing_pair()
     depth = np.array([[2.0, 2.0, 2.0], [1.78, 1.78, 1.78]])[..., None]  # the off-axis rays: within 1e-6 of it
     hit = np.ones(depth.shape, bool)
-    ext = solid_extent(cams, depth, hit, depth, reach=0.5, samples=10)
+    ext = solid_extent(cams, *cams.rays(), depth, hit, depth, reach=0.5, samples=10)
     assert ext[:, 1, 0] == pytest.approx([0.2, 0.2])
     # with a margin of 0.1, B's emptiness starts at x > 0.32: the extent grows to 0.3
-    assert solid_extent(cams, depth, hit, depth, reach=0.5, samples=10, margin=0.1)[0, 1, 0] == pytest.approx(0.3)
+    wider = solid_extent(cams, *cams.rays(), depth, hit, depth, reach=0.5, samples=10, margin=0.1)
+    assert wider[0, 1, 0] == pytest.approx(0.3)
     # a view that knows nothing (free 0) carves nothing: the reach
     unknown = depth.copy()
     unknown[1] = 0.0
-    assert solid_extent(cams, depth, hit, unknown, reach=0.5, samples=10)[0, 1, 0] == pytest.approx(0.5)
+    assert solid_extent(cams, *cams.rays(), depth, hit, unknown, reach=0.5, samples=10)[0, 1, 0] == pytest.approx(0.5)
     # a ray without a depth has no extent
-    assert solid_extent(cams, depth, ~hit, depth, reach=0.5, samples=10).max() == 0.0
+    assert solid_extent(cams, *cams.rays(), depth, ~hit, depth, reach=0.5, samples=10).max() == 0.0
 
 
 def test_a_point_behind_a_camera_or_off_its_image_is_not_carved():
@@ -80,10 +81,23 @@ def test_training_rays_carry_their_extent(bunny_small):
 
 
 def test_many_rays_are_carved_by_a_subset_of_the_views(bunny_small, monkeypatch):
-    # a budget too small for the 12 views: 8 of them carve, so an extent can only be longer, never shorter
+    # a budget for 8 of the 12 views at 16 samples: those 8 carve, so an extent can only be longer, never shorter
     import mitnerf.data.carve as carve
     split = bunny_small["train"]
-    full = split.rays((0, 0, 0), solid_reach=0.3).solid
-    monkeypatch.setattr(carve, "MAX_TESTS", 1000)
-    fewer = split.rays((0, 0, 0), solid_reach=0.3).solid
+    hit = np.isfinite(split.depth)
+    args = (split.cameras, *split.cameras.rays(), split.depth, hit, split.depth)      # free: the depth itself
+    full = carve.solid_extent(*args, reach=0.3)
+    monkeypatch.setattr(carve, "MAX_TESTS", int(hit.sum()) * 16 * 8)
+    fewer = carve.solid_extent(*args, reach=0.3)
     assert (fewer >= full).all() and (fewer > full).any()
+
+
+def test_a_split_carves_once_per_reach(bunny_small, monkeypatch):
+    import mitnerf.data.dataset as dataset
+    calls = []
+    monkeypatch.setattr(dataset, "solid_extent", lambda *a, **k: calls.append(a[-1]) or np.zeros(a[3].shape))
+    split = dataset.Split(**{f: getattr(bunny_small["train"], f)
+                             for f in ("cameras", "color", "alpha", "depth", "mask", "linear")})
+    for reach in (0.2, 0.2, 0.3):
+        split.rays((0, 0, 0), solid_reach=reach)
+    assert calls == [0.2, 0.3]

@@ -143,7 +143,8 @@ def test_solid_points_lie_within_each_rays_extent():
     depth, extent = np.full(4, 2.0), np.array([0.15, 0.15, 0.002, 0.0])
     expected = [2.005, 2.0775, 2.002, 2.0]
     np.testing.assert_allclose(behind_depth(u, depth, extent, 0.005), expected, rtol=1e-12)
-    np.testing.assert_allclose(np.asarray(behind_depth(Float(u), Float(depth), Float(extent), 0.005)), expected, rtol=1e-6)
+    got = behind_depth(Float(u), Float(depth), Float(extent), 0.005)
+    np.testing.assert_allclose(np.asarray(got), expected, rtol=1e-6)
     np.testing.assert_allclose(behind_depth(torch.tensor(u), torch.tensor(depth), torch.tensor(extent), 0.005).numpy(),
                                expected, rtol=1e-12)
 

@@ -76,6 +76,8 @@ class Split:
     """Whether the pixel-centre ray hits the object; ``None`` when unknown."""
     linear: np.ndarray | None = None
     """Exact linear RGB over black (datasets rendered here), ``[n, H, W, 3]``."""
+    _extents: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    """Solid extents already carved, by ``(reach, margin)`` (a fit --auto search fits the split many times)."""
 
     def __post_init__(self):
         n, H, W = len(self.cameras), self.cameras.height, self.cameras.width
@@ -127,8 +129,11 @@ class Split:
         free = free_distance(self.depth, self.mask, self.alpha)
         solid = np.zeros(hit.shape)
         if solid_reach > 0 and self.depth is not None:
-            solid = solid_extent(self.cameras, self.depth, hit.reshape(self.depth.shape), free, solid_reach,
-                                 margin=margin)
+            key = (float(solid_reach), float(margin))
+            if key not in self._extents:
+                self._extents[key] = solid_extent(self.cameras, o, d, self.depth, hit.reshape(self.depth.shape),
+                                                  free, solid_reach, margin=margin)
+            solid = self._extents[key]
         flat = lambda a, *shape: np.asarray(a, np.float32).reshape(-1, *shape)
         return RaySet(flat(o, D), flat(d, D), flat(target, 3), flat(depth), flat(hit), flat(free),
                       flat(self.cameras.footprint(), 2, D), flat(solid))

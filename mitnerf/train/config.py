@@ -135,7 +135,7 @@ class TrainConfig:
         check("free_space_margin", self.free_space_margin, 0, 1e6)
         check("solid_weight", self.solid_weight, 0, 1e6, flag="--solid-weight")
         check("solid_thickness", self.solid_thickness, 0, 1e6, strict_lo=True)
-        check("solid_start", self.solid_start, 0, 1e6)
+        check("solid_start", self.solid_start, 0, self.solid_thickness)
         check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
         check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
         check("val_views", self.val_views, 1, 10 ** 6, integer=True)
