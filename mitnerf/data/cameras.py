@@ -113,15 +113,18 @@ class Cameras:
         o = np.broadcast_to(self.origins[:, None, None, :], d.shape)
         return np.ascontiguousarray(o), d
 
+    def to_camera(self, points: np.ndarray) -> np.ndarray:
+        """World points ``[m, dim]`` in every camera's axes, ``[n, m, dim]`` (the poses' rotations are orthonormal)."""
+        k = self.dim
+        return np.einsum("nji,nmj->nmi", self.poses[:, :k, :k], points[None] - self.origins[:, None])
+
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Continuous pixel coordinates of world points in every camera (2D only): ``points [m, 2]`` ->
         ``(row [n, m], forward [n, m])``. Pixel ``floor(row)`` sees the point (the centre ray of pixel ``i``
         has ``row == i + 0.5``); ``forward`` is the camera-space distance along the view axis (> 0 in front)."""
         if self.dim != 2:
             raise NotImplementedError("project() is defined for 2D cameras")
-        inv = np.linalg.inv(self.poses)                       # world -> camera
-        p = np.c_[points, np.ones(len(points))]
-        cam = np.einsum("nij,mj->nmi", inv, p)                # [n, m, 3]
+        cam = self.to_camera(points)                          # [n, m, 2]
         fwd, up = cam[..., 0], cam[..., 1]
         with np.errstate(divide="ignore", invalid="ignore"):
             row = self.height / 2 - self.focal * up / fwd

@@ -28,14 +28,13 @@ MAX_TESTS = 200_000_000
 def pixel_of(cameras: Cameras, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pixel of every camera that sees each world point: ``points [m, D]`` -> ``(row, col, inside)``, each
     ``[n, m]``; ``inside``: the point is in front of the camera and on its image (``row``/``col`` are 0 where not)."""
-    k, f, H, W = cameras.dim, cameras.focal, cameras.height, cameras.width
-    R, o = cameras.poses[:, :k, :k], cameras.origins                          # camera-to-world
-    cam = np.einsum("nji,nmj->nmi", R, points[None] - o[:, None])          # world -> camera axes, [n, m, D]
+    f, H, W = cameras.focal, cameras.height, cameras.width
     with np.errstate(divide="ignore", invalid="ignore"):
-        if k == 2:                                  # forward x, up y: row i + 0.5 = H/2 - f up / forward
-            fwd = cam[..., 0]
-            row, col = np.floor(H / 2 - f * cam[..., 1] / fwd), np.zeros_like(fwd)
+        if cameras.dim == 2:                        # Cameras.project: row = H/2 - f up / forward, floored
+            row, fwd = cameras.project(points)
+            row, col = np.floor(row), np.zeros_like(fwd)
         else:                                       # looks down -z; col + 0.5 = W/2 + f x / forward
+            cam = cameras.to_camera(points)                                   # [n, m, 3]
             fwd = -cam[..., 2]
             row, col = np.floor(H / 2 - f * cam[..., 1] / fwd), np.floor(W / 2 + f * cam[..., 0] / fwd)
     inside = (fwd > 0) & (row >= 0) & (row < H) & (col >= 0) & (col < W)
