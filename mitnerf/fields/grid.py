@@ -48,7 +48,7 @@ class GridConfig:
     tv_color_weight: float = 0.0
     """Total-variation weight on the colour grid."""
     tv_samples: int = 65536
-    """Random vertices per step for the total variation (0: the whole grid)."""
+    """Vertices per step for the total variation, consecutive from a random start (0: the whole grid)."""
     bound: float = 1.5
     """Half-extent of the grid in world units."""
 
@@ -169,24 +169,38 @@ class GridField(Field):
 
     def regularizer(self, params, seed: UInt32) -> Float | None:
         """Total variation: per axis and channel, the mean squared difference of neighbouring vertices (at
-        ``tv_samples`` random ones), weighted and summed; None when both weights are 0."""
+        :func:`tv_vertices`), weighted and summed; None when both weights are 0. Each vertex is read once per
+        array, so the adjoint writes without atomics (``ReduceMode.Permute``)."""
         cfg = self.cfg
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
         res = self.resolution_of(params)
-        n = res ** self.dim
-        v = (hash_u32(hash_u32(seed ^ 0x2545F491) ^ dr.arange(UInt32, cfg.tv_samples)) % n
-             if 0 < cfg.tv_samples < n else dr.arange(UInt32, n))
+        v = tv_vertices(seed, cfg.tv_samples, res ** self.dim)
+        strides = [res ** a for a in range(self.dim)]
+        ok = [(v // stride) % res < res - 1 for stride in strides]      # has a neighbour along each axis
         total = Float(0.0)
         for name, weight, C in (("density", cfg.tv_weight, 1), ("color", cfg.tv_color_weight, 3 * cfg.color_coeffs)):
             if weight <= 0:
                 continue
-            tv = Float(0.0)
-            for stride in (res ** a for a in range(self.dim)):   # neighbours along each axis
-                ok = (v // stride) % res < res - 1
-                nb = dr.select(ok, v + stride, v)
-                for c in range(C):
-                    diff = dr.gather(Float, params[name], nb * C + c) - dr.gather(Float, params[name], v * C + c)
-                    tv += dr.mean(dr.select(ok, diff * diff, 0.0))
-            total = total + weight * (cfg.density_scale ** 2 if name == "density" else 1.0) * tv
+            per_vertex = Float(0.0)
+            for c in range(C):
+                here = dr.gather(Float, params[name], v * C + c)
+                for stride, has in zip(strides, ok):
+                    there = dr.gather(Float, params[name], (v + stride) * C + c, has)
+                    per_vertex += dr.select(has, dr.square(there - here), 0.0)
+            total = total + weight * (cfg.density_scale ** 2 if name == "density" else 1.0) * dr.mean(per_vertex)
         return total
+
+
+TV_SALT = 0x2545F491
+"""Seed salt of the total variation's vertices (both engines)."""
+
+
+def tv_vertices(seed, samples: int, n: int):
+    """The vertices whose total variation a step takes: all ``n``, or (``0 < samples < n``) ``samples``
+    consecutive ones in storage order from a random start, wrapping around: distinct, so their reads are a
+    permutation. ``seed`` UInt32 (Dr.Jit) -> UInt32 ``[samples]``; twin: the torch field's ``tv_vertices``."""
+    if not 0 < samples < n:
+        return dr.arange(UInt32, n)
+    start = hash_u32(hash_u32(seed ^ TV_SALT) ^ UInt32(0)) % n
+    return (start + dr.arange(UInt32, samples)) % n

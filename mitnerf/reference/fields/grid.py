@@ -8,7 +8,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ...fields.grid import GridConfig, view_basis
+from ...fields.grid import TV_SALT, GridConfig, view_basis
 from ...rng import batch_indices
 from .mlp import TwinField, density_activation
 
@@ -88,18 +88,25 @@ class GridField(TwinField):
         cfg, res = self.cfg, self.res
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
-        n = res ** self.dim
-        sampled = cfg.tv_samples and cfg.tv_samples < n
-        v = torch.from_numpy(batch_indices(seed ^ 0x2545F491, cfg.tv_samples, n)) if sampled else torch.arange(n)
+        v = tv_vertices(seed, cfg.tv_samples, res ** self.dim)
         total = 0.0
         for grid, weight, scale in ((self.density_grid, cfg.tv_weight, cfg.density_scale ** 2),
                                     (self.color_grid, cfg.tv_color_weight, 1.0)):
             if weight <= 0:
                 continue
-            tv = 0.0
+            per_vertex = 0.0
             for a in range(self.dim):
                 ok = ((v // res ** a) % res) < res - 1
                 diff = grid[torch.where(ok, v + res ** a, v)] - grid[v]
-                tv = tv + torch.where(ok[:, None], diff * diff, torch.zeros_like(diff)).mean(0).sum()
-            total = total + weight * scale * tv
+                per_vertex = per_vertex + torch.where(ok[:, None], diff * diff, torch.zeros_like(diff)).sum(1)
+            total = total + weight * scale * per_vertex.mean()
         return total
+
+
+def tv_vertices(seed: int, samples: int, n: int) -> torch.Tensor:
+    """Twin of :func:`mitnerf.fields.grid.tv_vertices`: all ``n`` vertices, or ``samples`` consecutive ones
+    from a random start (wrapping)."""
+    if not 0 < samples < n:
+        return torch.arange(n)
+    start = int(batch_indices(seed ^ TV_SALT, 1, n)[0])
+    return (start + torch.arange(samples)) % n
