@@ -94,3 +94,60 @@ def test_custom_op_gradient_matches_the_hand_derivation():
     g_rgb = np.asarray(dr.grad(field.params["rgb"]))
     assert g_sigma == pytest.approx(2 * math.exp(-1) * (0.9 - 0.1), rel=1e-6)
     np.testing.assert_allclose(g_rgb, [1 - math.exp(-1), 0, 0], rtol=1e-6)
+
+
+class SkippingField(PiecewiseField):
+    """PiecewiseField that honours ``keep``: its colour is NaN wherever it was told the colour is not used."""
+
+    skips_color = True
+
+    def query(self, params, x, d, keep=None):
+        sigma, rgb = super().query(params, x, d)
+        if keep is None:                # plain AD evaluates every sample
+            return sigma, rgb
+        kept = keep(sigma)
+        return sigma, [dr.select(kept, c, dr.nan) for c in rgb]
+
+
+@pytest.mark.parametrize("method", ["replay", "autodiff"])
+@pytest.mark.parametrize("skipping", [False, True])
+def test_a_sample_below_w_min_adds_no_colour(method, skipping):
+    # samples at t = 1, 2, far = 3 (delta 1); sigma = [5e-5, 1]: w0 = 1 - e^-5e-5 = 5.0e-5 <= W_MIN = 1e-4,
+    # so the white first sample adds no colour; w1 = e^-5e-5 (1 - e^-1) = 0.632089
+    #   C = w1 * red + e^-1.00005 * blue = (0.632089, 0, 0.367861);  D = w0 * 1 + w1 * 2 = 1.264228 (all weights)
+    cls = SkippingField if skipping else PiecewiseField
+    field = cls([[5e-5, 1.0]], [[[1, 1, 1], [1, 0, 0]]], [[1.0, 2.0]])
+    dr.enable_grad(field.params)
+    o, d = [Float(0.0), Float(0.0)], [Float(1.0), Float(0.0)]
+    out = volume_render(field, field.params, o, d, 0.5, 3.0, Explicit(Float([1.0, 2.0]), 2), (0, 0, 1), method=method)
+    w0, w1 = 1 - math.exp(-5e-5), math.exp(-5e-5) * (1 - math.exp(-1))
+    np.testing.assert_allclose([float(c[0]) for c in out.rgb], [w1, 0, math.exp(-1.00005)], rtol=1e-5, atol=1e-7)
+    assert float(out.depth[0]) == pytest.approx(w0 + 2 * w1, rel=1e-6)
+    dr.backward(out.rgb[0] + out.rgb[1])            # cotangent (1, 1, 0)
+    g_rgb = np.asarray(dr.grad(field.params["rgb"]))
+    np.testing.assert_allclose(g_rgb, [0, 0, 0, w1, w1, 0], rtol=1e-5, atol=0)     # no gradient to the skipped colour
+    # dC_r/dsigma0 = -delta * w1 (the first sample's colour counts as nothing); dC_r/dsigma1 = delta * e^-1.00005
+    g_sigma = np.asarray(dr.grad(field.params["sigma"]))
+    np.testing.assert_allclose(g_sigma, [-w1, math.exp(-1.00005)], rtol=1e-4)
+
+
+def test_the_torch_twin_leaves_out_the_same_colour():
+    # the case above, in the torch twin: C = (w1, 0, e^-1.00005)
+    torch = pytest.importorskip("torch")
+    from mitnerf.reference.render.volume import integrate
+
+    out = integrate(torch.tensor([[5e-5, 1.0]]), torch.tensor([[[1.0, 1, 1], [1, 0, 0]]]), torch.tensor([[1.0, 2.0]]),
+                    torch.tensor([[1.0, 1.0]]), (0, 0, 1))
+    w1 = math.exp(-5e-5) * (1 - math.exp(-1))
+    np.testing.assert_allclose(out.rgb.numpy()[0], [w1, 0, math.exp(-1.00005)], rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("method", ["replay", "autodiff"])
+def test_w_min_zero_counts_every_colour(method):
+    # the case above with w_min = 0: the white first sample now adds w0 = 5.0e-5 to every channel
+    field = PiecewiseField([[5e-5, 1.0]], [[[1, 1, 1], [1, 0, 0]]], [[1.0, 2.0]])
+    o, d = [Float(0.0), Float(0.0)], [Float(1.0), Float(0.0)]
+    out = volume_render(field, field.params, o, d, 0.5, 3.0, Explicit(Float([1.0, 2.0]), 2), (0, 0, 1),
+                        method=method, w_min=0.0)
+    w0, w1 = 1 - math.exp(-5e-5), math.exp(-5e-5) * (1 - math.exp(-1))
+    np.testing.assert_allclose([float(c[0]) for c in out.rgb], [w0 + w1, w0, w0 + math.exp(-1.00005)], rtol=1e-5, atol=1e-7)

@@ -9,6 +9,10 @@ held by the caller (an optimizer), as in ``drjit.nn``. Every field implements::
     query(params, x, d) -> (sigma, rgb)  # d: unit view directions -> Float [n], 3 x Float [n]
     to_numpy(params) / from_numpy(arrays)   # canonical weights (checkpoints, the torch twin)
 
+A field with ``skips_color = True`` takes ``query(params, x, d, keep=None)``: ``keep`` maps the density to the
+samples whose colour the integral uses (a Bool array), and the field may skip the colour's work elsewhere (and
+return anything there), as the dense grid does.
+
 ``traceable`` says whether ``query`` can run inside a symbolic loop (one ray step at a
 time, as the fused volume integral does); fields built on tensor matrix products
 cannot, and are evaluated on all samples at once instead.

@@ -12,7 +12,7 @@ import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
 from ..errors import ConfigError, check_number
-from .integral import RenderOutput
+from .integral import W_MIN, RenderOutput
 from .occupancy import OccupancyConfig, OccupiedSampler
 from .samplers import Stratified, importance_sample
 from .volume import METHODS, volume_render
@@ -39,6 +39,9 @@ class RenderConfig:
     eval_spp: int = 1
     """Rays averaged per pixel when evaluating (stratified over the footprint: 2D along the
     view, 3D on a square grid); 1: the pixel centre."""
+    min_color_weight: float = W_MIN
+    """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
+    (:mod:`.integral`); 0: every sample's colour counts."""
 
     def __post_init__(self):
         self.background = tuple(self.background)
@@ -49,6 +52,7 @@ class RenderConfig:
         check_number("n_coarse", self.n_coarse, 1, 4096, integer=True, flag="--samples")
         check_number("n_fine", self.n_fine, 0, 4096, integer=True, flag="--fine")
         check_number("eval_spp", self.eval_spp, 1, 64, integer=True, flag="--eval-spp")
+        check_number("min_color_weight", self.min_color_weight, 0.0, 0.01)
         if self.method not in METHODS:
             raise ConfigError(f"--method must be one of {', '.join(METHODS)}, got {self.method!r}")
         if len(self.background) != 3:
@@ -129,7 +133,7 @@ class Model:
             sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins,
                                       self.fields["coarse"].cfg.bound, cfg.occupancy.resolution, seed,
                                       jitter=training).build(origins, directions, near, far)
-        kw = dict(method=cfg.method, input_grads=input_grads)
+        kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
                                           near, far, sampler, cfg.background, weights=weights or cfg.n_fine > 0, **kw),
                   "fine": None}

@@ -12,43 +12,47 @@ from dataclasses import replace
 import drjit as dr
 from drjit.auto.ad import Array3f, Float, UInt32
 
-from .integral import RenderOutput, VolumeIntegral, gathered_source
+from .integral import W_MIN, RenderOutput, VolumeIntegral, gathered_source
 
 METHODS = ("replay", "autodiff")
 
 
-def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, background) -> RenderOutput:
+def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, background,
+                       w_min: float = W_MIN) -> RenderOutput:
     """Ray-major samples (``[n_rays * N]`` each) -> per-ray colour, depth, opacity, weights; block
-    prefix sums for the transmittance."""
+    prefix sums for the transmittance. Samples of weight at most ``w_min`` add no colour, as in the replay."""
     sd = sigma * delta
     T = dr.exp(-dr.block_prefix_sum(sd, N, exclusive=True))     # T_i
     w = T * (1.0 - dr.exp(-sd))
     T_end = dr.exp(-dr.block_sum(sd, N))
-    C = [dr.block_sum(w * c, N) + T_end * b for c, b in zip(rgb, background)]
+    C = [dr.block_sum(dr.select(w > w_min, w * c, 0.0), N) + T_end * b for c, b in zip(rgb, background)]
     return RenderOutput(C, dr.block_sum(w * t, N), 1.0 - T_end, w)
 
 
 def volume_render(field, params: dict, origins: list, directions: list, near, far, sampler,
                   background=(0.0, 0.0, 0.0), *, method: str = "replay", weights: bool = False,
-                  input_grads: bool = False) -> RenderOutput:
+                  input_grads: bool = False, w_min: float = W_MIN) -> RenderOutput:
     """Render rays ``origins, directions`` (D arrays ``[n_rays]``; unit directions) through ``field``;
     ``near, far``: per-ray arrays or scalars. ``weights=True`` also returns the (differentiable) per-sample
-    weights; ``input_grads=True`` makes origins and directions differentiable through a traceable field."""
+    weights; ``input_grads=True`` makes origins and directions differentiable through a traceable field. Samples
+    of weight at most ``w_min`` add no colour (:mod:`.integral`; 0: every sample's colour counts)."""
     near, far = Float(near), Float(far)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if method == "replay" and field.traceable:
-        def source(p, x, d, index):
-            return field.query(p, x, d)
+        skips = getattr(field, "skips_color", False)    # whether its query takes ``keep``
+
+        def source(p, x, d, index, keep=None):
+            return field.query(p, x, d, keep=keep) if skips else field.query(p, x, d)
     else:
         t, delta = sampler.points(dr.width(origins[0]), near, far)
         ray = dr.arange(UInt32, dr.width(t)) // sampler.n                   # of every sample (ray-major)
         d = [dr.gather(Float, di, ray) for di in directions]
         sigma, rgb = field.query(params, [dr.gather(Float, oi, ray) + t * di for oi, di in zip(origins, d)], d)
         if method == "autodiff":
-            out = integrate_autodiff(sigma, rgb, t, delta, sampler.n, background)
+            out = integrate_autodiff(sigma, rgb, t, delta, sampler.n, background, w_min)
             return out if weights else replace(out, weights=None)
         params, source, input_grads = {"sigma": sigma, "rgb": dr.ravel(Array3f(rgb))}, gathered_source, False
     out = dr.custom(VolumeIntegral, params, list(origins), list(directions), near, far, source, sampler,
-                    tuple(background), weights, input_grads)
+                    tuple(background), weights, input_grads, float(w_min))
     return RenderOutput(*out)

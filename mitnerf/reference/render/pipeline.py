@@ -53,12 +53,12 @@ class Model(nn.Module):
         else:
             sampler = Stratified(cfg.n_coarse, seed, jitter=training)
         result = {"coarse": volume_render(self.fields["coarse"], origins, directions, near, far, sampler,
-                                          cfg.background, weights=True), "fine": None}
+                                          cfg.background, weights=True, w_min=cfg.min_color_weight), "fine": None}
         if cfg.n_fine > 0:
             t, delta = sampler.points(n, near, far)
             sampler = importance_sample(t, delta, result["coarse"].weights, cfg.n_fine, seed, training)
             result["fine"] = volume_render(self.fields[self.final_field()], origins, directions, near, far, sampler,
-                                           cfg.background, weights=weights)
+                                           cfg.background, weights=weights, w_min=cfg.min_color_weight)
         elif not weights:
             result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
