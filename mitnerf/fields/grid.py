@@ -5,8 +5,9 @@ Values live on ``R^D`` vertices spanning ``[-bound, bound]^D`` (vertex ``k`` at
 *then* applies the activations, so a surface can be sharper than a cell, as in
 Plenoxels and DVGO. Outside the bound the density is 0. Every operation is a gather, so
 the field is traceable (it runs inside the fused march); where the integral does not use a sample's colour
-(``keep``), only the density is read, so empty space and the inside of a surface cost a quarter (2D) or a
-ninth (3D) of the colour's reads and of the adjoint's writes. Twin: :mod:`mitnerf.reference.fields.grid`.
+(``keep``), only the density is read (one channel per corner instead of 1 + 3 x the colour's coefficients), so
+empty space and the inside of a surface cost that much less in the primal and the adjoint
+(``benchmarks/grid_step.py``). Twin: :mod:`mitnerf.reference.fields.grid`.
 """
 
 from __future__ import annotations
@@ -173,8 +174,8 @@ class GridField(Field):
 
     def regularizer(self, params, seed: UInt32) -> Float | None:
         """Total variation: per axis and channel, the mean squared difference of neighbouring vertices (at
-        :func:`tv_vertices`), weighted and summed; None when both weights are 0. Each vertex is read once per
-        array, so the adjoint writes without atomics (``ReduceMode.Permute``)."""
+        :func:`tv_vertices`: distinct and consecutive, so the reads stay in cache), weighted and summed in one
+        reduction per array; None when both weights are 0."""
         cfg = self.cfg
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
