@@ -170,7 +170,8 @@ def run_torch(model_cfg, weights, o, d, cot, seed):
 
 
 def finite_differences(field: str, dim: int, seed: int = 0, verbose: bool = False) -> float:
-    """Custom-op gradient of a tiny case against central differences (fp32, eps 1e-2)."""
+    """Custom-op gradient of a tiny case against central differences (fp32, eps 1e-2); every colour counts
+    (``w_min = 0``), so no step of the differences moves a sample across the colour threshold."""
     import drjit as dr
     from drjit.auto.ad import Float, UInt32
 
@@ -194,7 +195,7 @@ def finite_differences(field: str, dim: int, seed: int = 0, verbose: bool = Fals
         if grad:
             dr.enable_grad(p)
         out = volume_render(f, p, [Float(c) for c in o.T], [Float(c) for c in d.T], 1.0, 7.0,
-                            Stratified(8, UInt32(3), jitter=True), (0.1, 0.2, 0.3))
+                            Stratified(8, UInt32(3), jitter=True), (0.1, 0.2, 0.3), w_min=0.0)
         loss = sum(dr.sum(v * Float(cot[:, k])) for k, v in enumerate(out.rgb + [out.depth, out.opacity]))
         if grad:
             dr.backward(loss)

@@ -136,10 +136,14 @@ def test_the_torch_twin_leaves_out_the_same_colour():
     torch = pytest.importorskip("torch")
     from mitnerf.reference.render.volume import integrate
 
-    out = integrate(torch.tensor([[5e-5, 1.0]]), torch.tensor([[[1.0, 1, 1], [1, 0, 0]]]), torch.tensor([[1.0, 2.0]]),
-                    torch.tensor([[1.0, 1.0]]), (0, 0, 1))
+    sigma = torch.tensor([[5e-5, 1.0]], requires_grad=True)
+    rgb = torch.tensor([[[1.0, 1, 1], [1, 0, 0]]], requires_grad=True)
+    out = integrate(sigma, rgb, torch.tensor([[1.0, 2.0]]), torch.tensor([[1.0, 1.0]]), (0, 0, 1))
     w1 = math.exp(-5e-5) * (1 - math.exp(-1))
-    np.testing.assert_allclose(out.rgb.numpy()[0], [w1, 0, math.exp(-1.00005)], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(out.rgb.detach().numpy()[0], [w1, 0, math.exp(-1.00005)], rtol=1e-5, atol=1e-7)
+    (out.rgb[0, 0] + out.rgb[0, 1]).backward()          # the gradients of the Dr.Jit test above
+    np.testing.assert_allclose(rgb.grad.numpy().ravel(), [0, 0, 0, w1, w1, 0], rtol=1e-5, atol=0)
+    np.testing.assert_allclose(sigma.grad.numpy().ravel(), [-w1, math.exp(-1.00005)], rtol=1e-4)
 
 
 @pytest.mark.parametrize("method", ["replay", "autodiff"])

@@ -20,8 +20,12 @@ def test_total_variation_of_a_ramp_by_hand():
 
 
 def test_a_sampled_step_takes_consecutive_distinct_vertices():
-    v = np.asarray(tv_vertices(UInt32(3), 5, 7))
-    assert len(set(v.tolist())) == 5 and all((b - a) % 7 == 1 for a, b in zip(v[:-1], v[1:]))
+    wrapped = 0
+    for seed in range(20):          # 5 of 7 vertices from a random start: some steps wrap past the last one
+        v = np.asarray(tv_vertices(UInt32(seed), 5, 7)).astype(np.int64)
+        assert len(set(v.tolist())) == 5 and all((b - a) % 7 == 1 for a, b in zip(v[:-1], v[1:]))
+        wrapped += int(v[-1] < v[0])
+    assert 0 < wrapped < 20
     np.testing.assert_array_equal(np.asarray(tv_vertices(UInt32(3), 0, 7)), np.arange(7))     # 0: the whole grid
     np.testing.assert_array_equal(np.asarray(tv_vertices(UInt32(3), 9, 7)), np.arange(7))     # more than there are
 

@@ -203,8 +203,8 @@ TV_SALT = 0x2545F491
 
 def tv_vertices(seed, samples: int, n: int):
     """The vertices whose total variation a step takes: all ``n``, or (``0 < samples < n``) ``samples``
-    consecutive ones in storage order from a random start, wrapping around: distinct, so their reads are a
-    permutation. ``seed`` UInt32 (Dr.Jit) -> UInt32 ``[samples]``; twin: the torch field's ``tv_vertices``."""
+    consecutive ones in storage order from a random start, wrapping around (distinct, and read in order).
+    ``seed`` UInt32 (Dr.Jit) -> UInt32 ``[samples]``; twin: the torch field's ``tv_vertices``."""
     if not 0 < samples < n:
         return dr.arange(UInt32, n)
     start = hash_u32(hash_u32(seed ^ TV_SALT) ^ UInt32(0)) % n

@@ -9,11 +9,15 @@ density :math:`\sigma_i` and colour :math:`c_i` (Max 1995; NeRF):
 
     C = \sum_{i:\, w_i > w_{min}} w_i c_i + T_N c_{bg},\qquad D = \sum_i w_i t_i,\qquad A = \sum_i w_i = 1 - T_N.
 
-A sample whose weight is at most :data:`W_MIN` (empty space, or behind an opaque surface) adds no colour: its
-colour is never read, and a field that can skip that work (``query(..., keep=...)``, the dense grid) gathers
-density only there, in the primal and in the adjoint. The colour it leaves out is at most
-:math:`N w_{min}` per ray and in practice far less; every engine (the replay, plain AD, the torch twin) follows
-the same rule, so they agree.
+A sample whose weight is at most :math:`w_{min}` (:data:`W_MIN` unless the render configuration says otherwise;
+empty space, or behind an opaque surface) adds no colour, and a field that can skip that work
+(``skips_color``: the dense grid) reads only its density there, in the primal and in the adjoint. The colour
+left out is at most :math:`N w_{min}` per ray and in practice far less. The adjoint below is the exact gradient
+of this model, in which a left-out sample's colour counts as nothing: its density's gradient sees a sample
+that adds no colour, not the colour the field holds there (at equal steps the fits are as good:
+``benchmarks/grid_step.py``). Every engine (the
+replay, plain AD, the torch twin) follows the same rule; they agree up to rounding of weights within float
+precision of :math:`w_{min}`, and ``w_min = 0`` counts every sample of positive weight.
 
 **Primal** (:class:`VolumeIntegral`): one symbolic loop marches all rays together, one sample
 per ray per step, accumulating ``C, D, A``; nothing per sample is kept (weights only when asked).
@@ -73,9 +77,11 @@ nerfacc's and instant-ngp's early-stop transmittance, it is far below what an 8-
 
 
 def gathered_source(params, x, d, index, keep=None):
-    """Read pre-evaluated samples: ``params = {'sigma': [n*N], 'rgb': [n*N*3]}``."""
+    """Read pre-evaluated samples: ``params = {'sigma': [n*N], 'rgb': [n*N*3]}`` (colour only where ``keep``)."""
     sigma = dr.gather(Float, params["sigma"], index, mode=dr.ReduceMode.Permute)
-    return sigma, [dr.gather(Float, params["rgb"], index * 3 + k, mode=dr.ReduceMode.Permute) for k in range(3)]
+    active = True if keep is None else keep(sigma)
+    return sigma, [dr.gather(Float, params["rgb"], index * 3 + k, active, mode=dr.ReduceMode.Permute)
+                   for k in range(3)]
 
 
 def _keep(T: Float, delta: Float, w_min: float):

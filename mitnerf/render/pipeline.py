@@ -41,7 +41,7 @@ class RenderConfig:
     view, 3D on a square grid); 1: the pixel centre."""
     min_color_weight: float = W_MIN
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
-    (:mod:`.integral`); 0: every sample's colour counts."""
+    (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
 
     def __post_init__(self):
         self.background = tuple(self.background)

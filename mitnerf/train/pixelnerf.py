@@ -109,7 +109,8 @@ class PixelTrainer:
         params = {name: opt[name] for name in opt.keys()}
         out = volume_render(fld, params, columns(sc.origins[view, pix]), columns(sc.directions[view, pix]),
                             dr.opaque(Float, sc.near), dr.opaque(Float, sc.far),
-                            Stratified(n, dr.opaque(UInt32, seed), jitter=True), (0.0, 0.0, 0.0))
+                            Stratified(n, dr.opaque(UInt32, seed), jitter=True), (0.0, 0.0, 0.0),
+                            w_min=self.recipe.model.render.min_color_weight)
         loss = mse(out.rgb, columns(sc.images[view, pix]))
         dr.backward(loss)
         opt.step()
@@ -135,7 +136,8 @@ class PixelTrainer:
             for s in range(0, len(origins), chunk):
                 out = volume_render(fld, params, columns(origins[s:s + chunk]), columns(directions[s:s + chunk]),
                                     dr.opaque(Float, near), dr.opaque(Float, far),
-                                    Stratified(n, UInt32(0), jitter=False), (0.0, 0.0, 0.0))
+                                    Stratified(n, UInt32(0), jitter=False), (0.0, 0.0, 0.0),
+                                    w_min=self.recipe.model.render.min_color_weight)
                 dr.eval(out.rgb, out.depth, out.opacity)
                 parts.append((np.stack([np.asarray(c) for c in out.rgb], 1), np.asarray(out.depth),
                               np.asarray(out.opacity)))
