@@ -15,9 +15,9 @@ empty space, or behind an opaque surface) adds no colour, and a field that can s
 left out is at most :math:`N w_{min}` per ray and in practice far less. The adjoint below is the exact gradient
 of this model, in which a left-out sample's colour counts as nothing: its density's gradient sees a sample
 that adds no colour, not the colour the field holds there (at equal steps the fits are as good:
-``benchmarks/grid_step.py``). Every engine (the
-replay, plain AD, the torch twin) follows the same rule; they agree up to rounding of weights within float
-precision of :math:`w_{min}`, and ``w_min = 0`` counts every sample of positive weight.
+``benchmarks/grid_step.py``). Every engine (the replay, plain AD, the torch twin) follows the same rule; they
+agree up to rounding of weights within float precision of :math:`w_{min}`, and ``w_min = 0`` counts every
+sample of positive weight.
 
 **Primal** (:class:`VolumeIntegral`): one symbolic loop marches all rays together, one sample
 per ray per step, accumulating ``C, D, A``; nothing per sample is kept (weights only when asked).
@@ -72,8 +72,8 @@ class RenderOutput:
 
 
 W_MIN = 1e-4
-"""The default :math:`w_{min}`: samples of at most this weight add no colour (see the module docstring); as
-nerfacc's and instant-ngp's early-stop transmittance, it is far below what an 8-bit image shows."""
+"""The default :math:`w_{min}`: samples of at most this weight add no colour (see the module docstring); the
+value of nerfacc's and instant-ngp's early-stop transmittance, far below what an 8-bit image shows."""
 
 
 def gathered_source(params, x, d, index, keep=None):
