@@ -3,9 +3,9 @@
 The integral leaves out the colour of samples whose weight is at most ``min_color_weight`` (empty space, the
 inside of a surface), and the dense grid then reads only their density (:mod:`mitnerf.render.integral`). Each
 pair of fits trains the default recipe for ``--steps`` steps (no time budget, same seed) with the recipe's
-``min_color_weight`` and with 0 (the colour of every sample of positive weight read), alternating the order over ``--repeats`` pairs,
-and reports both training times, their ratio and both test PSNRs (and IoU or Chamfer distance): on the 2D
-bunny and, unless ``--no-3d``, on the glossy vase (25 views of 100 x 100).
+``min_color_weight`` and with 0 (the colour of every sample of positive weight read), alternating the order
+over ``--repeats`` pairs, and reports both training times, their ratio and both test PSNRs (and IoU or Chamfer
+distance): on the 2D bunny and, unless ``--no-3d``, on the glossy vase (25 views of 100 x 100).
 
 Prints the figures and records them in ``results.json`` (``grid_step/2d``, ``grid_step/3d``).
 

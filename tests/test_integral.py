@@ -154,4 +154,5 @@ def test_w_min_zero_counts_every_colour(method):
     out = volume_render(field, field.params, o, d, 0.5, 3.0, Explicit(Float([1.0, 2.0]), 2), (0, 0, 1),
                         method=method, w_min=0.0)
     w0, w1 = 1 - math.exp(-5e-5), math.exp(-5e-5) * (1 - math.exp(-1))
-    np.testing.assert_allclose([float(c[0]) for c in out.rgb], [w0 + w1, w0, w0 + math.exp(-1.00005)], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose([float(c[0]) for c in out.rgb], [w0 + w1, w0, w0 + math.exp(-1.00005)],
+                               rtol=1e-5, atol=1e-7)

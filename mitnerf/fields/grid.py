@@ -207,5 +207,5 @@ def tv_vertices(seed, samples: int, n: int):
     ``seed`` UInt32 (Dr.Jit) -> UInt32 ``[samples]``; twin: the torch field's ``tv_vertices``."""
     if not 0 < samples < n:
         return dr.arange(UInt32, n)
-    start = hash_u32(hash_u32(seed ^ TV_SALT) ^ UInt32(0)) % n
+    start = hash_u32(hash_u32(seed ^ TV_SALT)) % n            # batch_indices(seed ^ TV_SALT, 1, n)
     return (start + dr.arange(UInt32, samples)) % n
