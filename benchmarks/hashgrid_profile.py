@@ -8,11 +8,14 @@ One run, 2 threads, the ``hashgrid-2d`` and ``grid-2d`` recipes (1024 rays per s
   gradient by scatter-add), the step without the occupancy grid, and the step at 24, 48
   and 96 samples per ray;
 * test PSNR after each recipe's 10 s for the hash grid at three table sizes against the
-  grid, with parameter counts (the grid's at its final resolution).
+  grid, with parameter counts (the grid's at its final resolution);
+* generalisation: training-view and test PSNR of each recipe after equal step counts
+  (``--steps``): a hash grid whose training PSNR climbs while its test PSNR stays is limited by
+  what it learns from the views, not by the steps a budget buys.
 
 Prints the figures and records them in ``results.json`` (``hashgrid/...``).
 
-    python benchmarks/hashgrid_profile.py [--rounds 20]
+    python benchmarks/hashgrid_profile.py [--rounds 20] [--steps 300 1000 3000]
 """
 
 from __future__ import annotations
@@ -58,6 +61,7 @@ def encoding_time(field, n: int, rounds: int) -> float:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--rounds", type=int, default=20)
+    p.add_argument("--steps", type=int, nargs="+", default=[300, 1000, 3000])
     args = p.parse_args(argv)
     dr.set_thread_count(2)
     ds = bunny()
@@ -93,7 +97,27 @@ def main(argv=None) -> int:
                   f"10 s on the bunny: grid {grid_rec.psnr:.2f} dB ({grid_rec.params:,} parameters); hash grid best "
                   f"2^{best} {rows[best][0]:.2f} dB ({rows[best][1] / grid_rec.params:.2f} of the parameters), "
                   f"gap {grid_rec.psnr - rows[best][0]:.2f} dB", COMMAND)
+    gen = generalisation(ds, {"hashgrid": hg, "grid": grid}, args.steps)
+    record_result("hashgrid/generalisation", gen,
+                  "train / test PSNR after equal steps: " + "; ".join(
+                      f"{name} " + ", ".join(f"{k} steps {v['train']:.1f} / {v['test']:.1f}" for k, v in runs.items())
+                      for name, runs in gen.items()) + " dB", COMMAND)
     return 0
+
+
+def generalisation(ds, recipes: dict, steps: list) -> dict:
+    """``{name: {steps: {"train": PSNR, "test": PSNR}}}``: each recipe trained for each step count (no clock)."""
+    out = {}
+    for name, recipe in recipes.items():
+        out[name] = {}
+        for n in steps:
+            r = recipe.override(progress=False, iters=n)
+            r.train.time_budget = None                   # equal steps, whatever the machine's speed
+            run, rec = fit_and_evaluate(ds, r, geometry_metrics=False)
+            train = run.record(ds, "train", geometry_metrics=False).psnr
+            out[name][str(n)] = {"train": train, "test": rec.psnr}
+            print(f"{name} {n} steps: train PSNR {train:.2f} dB, test {rec.psnr:.2f} dB", flush=True)
+    return out
 
 
 if __name__ == "__main__":
