@@ -5,6 +5,11 @@ Positions, mapped to ``[0, 1]^D`` over ``[-bound, bound]^D``, are encoded by a h
 one-hidden-layer density network maps the features to the raw density and ``geo_features``
 features; a colour network maps those (plus the encoded view direction when ``view_dependent``)
 to a sigmoid RGB. Outside the bound the density is 0. Twin: :mod:`mitnerf.reference.fields.hashgrid`.
+
+Nothing ties a hashed entry to its neighbours, so on few views the field can fit each training ray on its own:
+its training PSNR can pass the dense grid's while its test PSNR stays below (``hashgrid/generalisation`` in
+``benchmarks/hashgrid_profile.py`` measures both at equal steps). The learning rate acts as a regulariser:
+a lower one fits the training views better and the test views worse, so the 2D recipe's is high.
 """
 
 from __future__ import annotations
