@@ -24,7 +24,7 @@ from mitnerf.results import load_results, machine_line
 
 ROOT = Path(__file__).resolve().parents[1]
 README_KEYS = ("demo/bunny", "fit/bunny-cli", "step_time/w128", "step_time/w32", "step_time/equal_steps_psnr",
-               "grid_step/2d",
+               "grid_step/2d", "hashgrid/psnr", "hashgrid/generalisation",
                "experiment/pe", "experiment/depth", "experiment/pixelnerf", "experiment/window-shop",
                "seeds/grid-2d", "check/nerfstudio")
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
