@@ -9,8 +9,8 @@ to a sigmoid RGB. Outside the bound the density is 0. Twin: :mod:`mitnerf.refere
 Nothing ties a hashed entry to its neighbours, so on few views the field can fit the training rays without
 the space between them: its test PSNR falls further below its training-view PSNR than the dense grid's, and
 more steps do not close that gap (``hashgrid/generalisation`` in ``benchmarks/hashgrid_profile.py`` measures
-both at equal steps). The learning rate acts as a regulariser:
-a lower one fits the training views better and the test views worse, so the 2D recipe's is high.
+both at equal steps). The learning rate acts as a regulariser: a lower one fits the training views better and
+the test views worse, so the 2D recipe's is high.
 """
 
 from __future__ import annotations
