@@ -28,9 +28,7 @@ COMMAND = "python benchmarks/grid_step.py"
 
 
 def fit(ds, recipe, steps: int, w_min: float):
-    r = recipe.override(min_color_weight=w_min, progress=False)
-    r.train.time_budget, r.train.iters = None, steps
-    _, rec = fit_and_evaluate(ds, r)
+    _, rec = fit_and_evaluate(ds, recipe.at_steps(steps, min_color_weight=w_min, progress=False))
     return rec
 
 

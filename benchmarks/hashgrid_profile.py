@@ -113,9 +113,7 @@ def generalisation(ds, recipes: dict, steps: list) -> dict:
     for name, recipe in recipes.items():
         out[name] = {}
         for n in steps:
-            r = recipe.override(progress=False, iters=n)
-            r.train.time_budget = None                   # equal steps, whatever the machine's speed
-            run, rec = fit_and_evaluate(ds, r, geometry_metrics=False)
+            run, rec = fit_and_evaluate(ds, recipe.at_steps(n, progress=False), geometry_metrics=False)
             train = run.record(ds, "train", geometry_metrics=False).psnr
             out[name][str(n)] = {"train": train, "test": rec.psnr}
             print(f"{name} {n} steps: train PSNR {train:.2f} dB, test {rec.psnr:.2f} dB", flush=True)

@@ -40,8 +40,7 @@ def main(argv=None) -> int:
         status, psnrs = [], []
         t0 = time.perf_counter()
         for seed in tqdm(range(args.seeds), desc=recipe.name, leave=False):
-            r = recipe.override(iters=STEPS[family], seed=seed, val_every=0, progress=False)
-            r.train.time_budget = None
+            r = recipe.at_steps(STEPS[family], seed=seed, val_every=0, progress=False)
             _, rec = fit_and_evaluate(ds, r, geometry_metrics=False)
             status.append(rec.status)
             if rec.status == "ok":

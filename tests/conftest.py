@@ -52,9 +52,7 @@ def small(name: str = "vanilla-2d", **overrides):
     r = get_recipe(name)
     args = dict(sizes[r.model.field], n_coarse=32, batch_rays=256, val_every=0, progress=False, iters=30)
     r = r.override(**{**args, **overrides})
-    if "time_budget" not in overrides:
-        r.train.time_budget = None
-    return r
+    return r if "time_budget" in overrides else r.at_steps(r.train.iters)
 
 
 # Hypothesis profiles (tests/fuzz/): HYPOTHESIS_PROFILE=ci (the default: derandomized, a fixed number of

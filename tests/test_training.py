@@ -192,3 +192,15 @@ def test_a_setting_written_at_its_value_is_the_same_recipe():
     assert same.name == "grid-3d" and same.essence() == base.essence()
     changed = base.override(view_dependent=not base.get("view_dependent"))
     assert changed.name == "grid-3d+" and changed.essence() != base.essence()
+
+
+def test_a_recipe_at_fixed_steps_has_no_clock():
+    """``at_steps``: exactly the steps asked, no time budget, other settings as ``override``, and the ``+``;
+    pixelnerf-2d (8000 steps within 150 s) at its own 8000 steps still differs: its clock is gone."""
+    from mitnerf.train.recipes import get_recipe
+
+    r = get_recipe("grid-2d").at_steps(300, seed=3)
+    assert (r.train.iters, r.train.time_budget, r.train.seed, r.name) == (300, None, 3, "grid-2d+")
+    same_steps = get_recipe("pixelnerf-2d").at_steps(8000)
+    assert same_steps.train.time_budget is None and same_steps.name == "pixelnerf-2d+"
+    assert get_recipe("vanilla-2d").at_steps(3000).name == "vanilla-2d"      # already 3000 steps, no clock

@@ -65,9 +65,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
         name, args, near = METHODS[label]
         data = ds if near is None else dataclasses.replace(ds, near=near)
         for k in range(cfg.seeds):
-            recipe = get_recipe(name).override(**args, n_coarse=cfg.samples, iters=cfg.steps,
-                                              val_every=max(cfg.steps // 3, 1), seed=cfg.seed + k)
-            recipe.train.time_budget = None
+            recipe = get_recipe(name).at_steps(cfg.steps, **args, n_coarse=cfg.samples,
+                                               val_every=max(cfg.steps // 3, 1), seed=cfg.seed + k)
             rows.append(train_row(data, recipe, {"method": label, "seed": cfg.seed + k}, geometry_metrics=False)[0])
     write_csv(out / "stability.csv", rows)
     summary = summarise(rows, ["method"], ("psnr",))

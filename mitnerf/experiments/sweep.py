@@ -126,7 +126,7 @@ def make_row(scene: str, rig: RigConfig, family: str, size: str, args: dict, sam
         overrides.update(n_coarse=samples, n_fine=samples // 2 if r.model.render.n_fine else None)
     r = r.override(**overrides, **(QUICK["train"] if cfg.quick else {}))
     if "iters" in parse_budget(budget):
-        r.train.time_budget = None
+        r = r.at_steps(r.train.iters)
     row = {"scene": scene, "rig": dataclasses.asdict(rig), "backend": backend, "recipe": r.to_dict(),
            "reference": reference}
     row["id"] = digest(json.dumps(row, sort_keys=True, default=list))

@@ -89,12 +89,11 @@ def probe_seconds(cfg: AutoConfig, dim: int) -> float:
 def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> Recipe:
     """The family's recipe (its view dependence and losses included) with the candidate's settings, trained for
     :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on every validation view."""
-    budget = dict(iters=cfg.steps) if cfg.steps else dict(time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)
-    r = recipe_for(family, dataset.dim).override(**args, seed=cfg.seed, val_every=0, val_views=10 ** 6,
-                                                  background=dataset.background, progress=False, **budget)
+    base = recipe_for(family, dataset.dim)
+    kw = dict(args, seed=cfg.seed, val_every=0, val_views=10 ** 6, background=dataset.background, progress=False)
     if cfg.steps:
-        r.train.time_budget = None
-    return r
+        return base.at_steps(cfg.steps, **kw)
+    return base.override(**kw, time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)
 
 
 def pick_size(sized: list[Trial], tolerance: float, target: float | None = None) -> tuple[Trial, bool, str]:

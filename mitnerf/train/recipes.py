@@ -58,9 +58,20 @@ class Recipe:
                 setattr(out.model.render.occupancy, sub, value)
             else:
                 out.model.field_args[key] = value
-        if out.essence() != self.essence() and not self.name.endswith("+"):
-            out.name = self.name + "+"          # a modified recipe says so
-        return out
+        return out._marked(self)
+
+    def at_steps(self, steps: int, **settings) -> "Recipe":
+        """A copy that trains exactly ``steps`` steps with no time budget (runs compared at equal steps, whatever
+        the machine's speed); other ``settings`` as :meth:`override`."""
+        out = self.override(iters=steps, **settings)
+        out.train.time_budget = None
+        return out._marked(self)
+
+    def _marked(self, base: "Recipe") -> "Recipe":
+        """``self``, named ``<base's name>+`` when its settings differ from ``base``'s (a modified recipe says so)."""
+        if self.essence() != base.essence() and not base.name.endswith("+"):
+            self.name = base.name + "+"
+        return self
 
     def has(self, key: str) -> bool:
         """Whether :meth:`override` and :meth:`get` know ``key`` as a training or field setting."""
