@@ -120,12 +120,13 @@ _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock deci
 RECIPES: dict[str, Recipe] = {r.name: r for r in [
     _r("grid-2d", 2, "grid", dict(resolution=257, initial_resolution=129, upsample_at=(150,), tv_weight=1e-4,
                                   view_dependent=True, tv_color_weight=1e-2),
-       dict(n_coarse=128), dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
+       dict(n_coarse=128), dict(time_budget=10.0, lr=0.2, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
-       "dense 2D grid, view-dependent colour, coarse to fine 129 -> 257, colour TV + distortion + opacity losses, "
-       "free space and solid matter where the data has depth (free space from alpha too), 10 s: the default for 2D "
-       "datasets"),
+       "dense 2D grid, view-dependent colour, coarse to fine 129 -> 257, a high learning rate (10 s buys a few "
+       "hundred steps, in which density has to go from transparent to opaque), colour TV + distortion + opacity "
+       "losses, free space and solid matter where the data has depth (free space from alpha too), 10 s: the default "
+       "for 2D datasets"),
     _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4), dict(n_coarse=64),
        dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=1024),
        "NeRF MLP 4 x 64, L = 8, 3000 steps"),
