@@ -24,12 +24,13 @@ fp32 tolerances, against (c) for values and (b) for gradients:
                max(|grad|, |fd|, 10 % of the largest gradient of that tensor)
 
 Fields (``--field``): the vanilla MLP (CoopVec and tensor modes), the dense grid (always
-fused into the march), the hash grid (CoopVec and tensor networks). Weights are the
+fused into the march), the hash grid (CoopVec and tensor networks), the linearly decoded hash
+grid (fused into the march, as the dense grid). Weights are the
 field's initialisation, with N(0, 0.3) noise added to grid values and hash tables (they
 start constant or near zero). Network weights keep their initialisation: noise there
 puts ReLU pre-activations within the finite-difference step of their kinks.
 
-    python examples/check_backends.py [--field vanilla|grid|hashgrid] [--dim 2|3] [--rays 64]
+    python examples/check_backends.py [--field vanilla|grid|hashgrid|hashlinear] [--dim 2|3] [--rays 64]
                                       [--samples 32] [--fine 16]
 """
 
@@ -62,12 +63,15 @@ FIELD_ARGS = {   # small fields, each with view dependence
     "grid": dict(resolution=17, view_dependent=True, tv_weight=0.0, density_init=0.5),
     "hashgrid": dict(n_levels=4, log2_hashmap_size=10, base_resolution=4, max_resolution=32, hidden=8,
                      geo_features=3, view_dependent=True, dir_L=2, density_activation="softplus", density_bias=0.5),
+    "hashlinear": dict(resolutions=(5, 9, 17), dense_levels=1, log2_hashmap_size=6, view_levels=2, initial_levels=3,
+                       tv_weight=0.0, tv_color_weight=0.0, density_init=0.5),
 }
 # (label, network mode or None, integral) per field
 VARIANTS = {
     "vanilla": [("custom op, coopvec field", "coopvec", "replay"), ("custom op, tensor field", "tensor", "replay"),
                 ("custom op, native MLP", "native", "replay"), ("drjit plain AD", "tensor", "autodiff")],
     "grid": [("custom op, fused grid", None, "replay"), ("drjit plain AD", None, "autodiff")],
+    "hashlinear": [("custom op, fused levels", None, "replay"), ("drjit plain AD", None, "autodiff")],
     "hashgrid": [("custom op, coopvec nets", "coopvec", "replay"), ("custom op, tensor nets", "tensor", "replay"),
                  ("drjit plain AD", "tensor", "autodiff")],
 }
@@ -77,7 +81,7 @@ GRID_ARRAYS = ("density", "color", "table")
 # Parameters no ReLU follows: moving them by the finite-difference step moves no kink, so
 # central differences in fp32 are exact to rounding. (Earlier layers are checked against
 # plain AD and torch above.)
-KINK_FREE = {"vanilla": ("sigma", "color.1"), "grid": ("density", "color"),
+KINK_FREE = {"vanilla": ("sigma", "color.1"), "grid": ("density", "color"), "hashlinear": ("density", "color"),
              "hashgrid": ("table", "sigma_net.1", "color_net.1")}
 
 
@@ -163,8 +167,8 @@ def run_torch(model_cfg, weights, o, d, cot, seed):
         res["field sigma"], res["field rgb"] = s.numpy(), c.numpy()
     loss.backward()
     grads = {k: v.grad.numpy() for k, v in model.named_parameters()}
-    grads = {k.replace("fields.", "", 1).replace("density_grid", "density").replace("color_grid", "color"): v
-             for k, v in grads.items()}
+    names = {"density_grid": "density", "color_grid": "color", "density_table": "density", "color_table": "color"}
+    grads = {".".join(names.get(p, p) for p in k.replace("fields.", "", 1).split(".")): v for k, v in grads.items()}
     grads["ray origins"], grads["ray directions"] = O.grad.numpy(), D.grad.numpy()
     return res, grads
 

@@ -48,7 +48,8 @@ def small(name: str = "vanilla-2d", **overrides):
     sizes = {"vanilla": dict(width=16, depth=3, pos_L=6, dir_L=3), "grid": dict(resolution=33, initial_resolution=17,
                                                                                upsample_at=(10,)),
              "hashgrid": dict(n_levels=4, log2_hashmap_size=10, hidden=8, geo_features=3, base_resolution=4,
-                              max_resolution=64)}
+                              max_resolution=64),
+             "hashlinear": dict(resolutions=(9, 17, 33), log2_hashmap_size=8, initial_levels=2, add_level_at=(10,))}
     r = get_recipe(name)
     args = dict(sizes[r.model.field], n_coarse=32, batch_rays=256, val_every=0, progress=False, iters=30)
     r = r.override(**{**args, **overrides})

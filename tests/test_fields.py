@@ -63,7 +63,8 @@ def test_bad_checkpoint_shapes_say_so():
 
 @pytest.mark.parametrize("field, args", [("vanilla", dict(width=16, depth=3)), ("grid", dict(resolution=9)),
                                          ("hashgrid", dict(n_levels=4, log2_hashmap_size=8, hidden=8,
-                                                           geo_features=3))])
+                                                           geo_features=3)),
+                                         ("hashlinear", dict(resolutions=(5, 9, 17), log2_hashmap_size=6))])
 def test_weight_transfer_round_trip(field, args):
     from mitnerf.reference.transfer import drjit_to_torch, torch_to_drjit
     from mitnerf.render.pipeline import RenderConfig

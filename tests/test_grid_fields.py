@@ -138,7 +138,8 @@ def test_auto_keeps_what_the_user_typed():
     assert any("not tried: the search budget is spent" in r for r in reasons), reasons
 
 
-@pytest.mark.parametrize("field, dim", [("grid", 2), ("grid", 3), ("hashgrid", 2), ("hashgrid", 3)])
+@pytest.mark.parametrize("field, dim", [("grid", 2), ("grid", 3), ("hashgrid", 2), ("hashgrid", 3), ("hashlinear", 2),
+                                        ("hashlinear", 3)])
 def test_grid_fields_pass_the_backend_checks(field, dim):
     import check_backends
 

@@ -35,7 +35,7 @@ OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "free space": dict(fre
 
 
 @pytest.mark.parametrize("option", OPTIONS)
-@pytest.mark.parametrize("family", ["vanilla", "grid", "hashgrid"])
+@pytest.mark.parametrize("family", ["vanilla", "grid", "hashgrid", "hashlinear"])
 def test_engines_agree_step_by_step(bunny_small, family, option):
     """Same weights, batches and jitter: the loss curves coincide, for every field family with
     depth supervision, the free-space and solid losses, a fine pass or the occupancy grid (this caught Dr.Jit 1.5.0's Adam
@@ -45,11 +45,13 @@ def test_engines_agree_step_by_step(bunny_small, family, option):
         recipe.model.field_args.update(upsample_at=(8,))       # the coarse-to-fine resize inside the compared steps
         if option == "regularisers":
             recipe.model.field_args["sh_degree"] = 2
+    if family == "hashlinear":
+        recipe.model.field_args.update(add_level_at=(8,))     # a level joins inside the compared steps
     ds = bunny_small
     bes = [make_backend(b, recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far) for b in ("drjit", "torch")]
     for be in bes:
         be.set_data(ds["train"].rays((0, 0, 0), **recipe.train.ray_args()))
-    lr = {"vanilla": 5e-3, "grid": 0.02, "hashgrid": 0.01}[family]
+    lr = {"vanilla": 5e-3, "grid": 0.02, "hashgrid": 0.01, "hashlinear": 0.02}[family]
     curves = [[be.read(be.step(k, step_seed(0, k), lr))[0] for k in range(16)] for be in bes]
     np.testing.assert_allclose(curves[0], curves[1], rtol=3e-3)
     assert curves[0][-1] < curves[0][0]

@@ -12,6 +12,7 @@ import dataclasses
 from ..errors import ConfigError
 from .grid import GridConfig, GridField
 from .hashgrid import HashGridConfig, HashGridField
+from .hashlinear import HashLinearConfig, HashLinearField
 from .mlp import NeRFConfig, NeRFField
 from .pixelnerf import PixelNeRFConfig, PixelNeRFField
 
@@ -19,6 +20,7 @@ FIELDS: dict[str, tuple[type, type]] = {
     "vanilla": (NeRFConfig, NeRFField),
     "grid": (GridConfig, GridField),
     "hashgrid": (HashGridConfig, HashGridField),
+    "hashlinear": (HashLinearConfig, HashLinearField),
     "pixelnerf": (PixelNeRFConfig, PixelNeRFField),
 }
 CONDITIONED = ("pixelnerf",)

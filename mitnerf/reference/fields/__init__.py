@@ -6,9 +6,10 @@ from ...errors import MitnerfError
 from ...fields import field_config
 from .grid import GridField
 from .hashgrid import HashGridField
+from .hashlinear import HashLinearField
 from .mlp import NeRFField
 
-TORCH_FIELDS = {"vanilla": NeRFField, "grid": GridField, "hashgrid": HashGridField}
+TORCH_FIELDS = {"vanilla": NeRFField, "grid": GridField, "hashgrid": HashGridField, "hashlinear": HashLinearField}
 
 
 def make_field(kind: str, **kwargs):

@@ -1,0 +1,258 @@
+"""A multi-resolution hash grid decoded linearly: the dense grid's density and colour, as a sum of levels.
+
+Level ``l`` is a lattice of ``resolutions[l]^D`` vertices over ``[-bound, bound]^D`` (vertex ``k`` at
+``-bound + 2 bound k / (R - 1)``, as in :mod:`.grid`). The first ``dense_levels`` levels are stored densely.
+Each finer level keeps ``2^log2_hashmap_size`` entries and finds a vertex's entry with instant-ngp's XOR-of-primes
+hash (:data:`.hashenc.PRIMES`). A query interpolates each level's raw density and raw colour coefficients
+(bi/trilinear) and sums them over the levels. It then applies the dense grid's activations and view harmonics.
+No network decodes the features. So the field is traceable, reads only the density where the integral skips
+colour (``keep``), and its parameters are its tables alone. The first ``view_levels`` levels carry the
+view-direction harmonics. Finer levels carry only the base colour: view dependence varies slowly in space.
+
+Coarse to fine: training starts with ``initial_levels`` levels, and one more joins at each step of
+``add_level_at``. A new level's entries start at 0, so joining does not change the field. The total variation is
+taken on the summed field, between neighbouring vertices of the finest level in use (``tv_samples`` consecutive
+ones per step). Taken on a hashed level's entries, it would tie unrelated vertices together.
+
+Why collisions cost little here: an outline (2D) or a surface (3D) touches few of a fine level's vertices, and
+the dense coarse levels carry free space and the inside. ``hashgrid/psnr`` in ``benchmarks/hashgrid_profile.py``
+compares this field with the dense grid and the instant-ngp hash grid at 10 s.
+Twin: :mod:`mitnerf.reference.fields.hashlinear`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import drjit as dr
+import numpy as np
+from drjit.auto.ad import Float, UInt32
+
+from ..errors import CheckpointError, ConfigError, check_number
+from .base import Field, cell_corners, check_config, density_activation, sigmoid
+from .grid import tv_vertices, view_basis
+from .hashenc import PRIMES
+
+
+@dataclass
+class HashLinearConfig:
+    """Levels and tables, with the dense grid's activations and regularisers."""
+
+    dim: int = 2
+    """2 or 3."""
+    resolutions: tuple = (65, 129, 257)
+    """Vertices per axis of each level, coarse to fine."""
+    dense_levels: int = 2
+    """The first levels are stored densely; finer ones are hashed."""
+    log2_hashmap_size: int = 13
+    """Entries of each hashed level, as a power of two (a level with fewer vertices is stored densely)."""
+    view_dependent: bool = True
+    """View-dependent colour: harmonics of the view direction up to ``sh_degree`` (as the dense grid)."""
+    sh_degree: int = 1
+    """Degree of the view-direction expansion (1 or 2) when ``view_dependent``."""
+    view_levels: int = 1
+    """The first levels carry the view harmonics; finer ones only the base colour."""
+    initial_levels: int = 2
+    """Levels in use at the start (coarse to fine)."""
+    add_level_at: tuple = (150,)
+    """Training steps at which the next level joins."""
+    density_activation: str = "softplus"
+    """``softplus``, ``relu`` or ``trunc_exp``, applied after the sum."""
+    density_init: float = -1.0
+    """Initial raw density everywhere (softplus(-1) = 0.31: slightly transparent)."""
+    density_scale: float = 10.0
+    """Raw densities are multiplied by this before the activation (a larger effective learning rate)."""
+    tv_weight: float = 1e-4
+    """Total-variation weight on the summed raw density (0: none)."""
+    tv_color_weight: float = 1e-2
+    """Total-variation weight on the summed colour coefficients."""
+    tv_samples: int = 8192
+    """Vertices of the finest level in use per step for the total variation (0: all)."""
+    bound: float = 1.5
+    """Half-extent of the lattices in world units."""
+
+    def __post_init__(self):
+        self.resolutions, self.add_level_at = tuple(self.resolutions), tuple(self.add_level_at)
+        check_config(self, dense_levels=(0, 32), log2_hashmap_size=(4, 24), sh_degree=(1, 2), view_levels=(1, 32),
+                     initial_levels=(1, 32), tv_samples=(0, 1 << 26))
+        top = 8193 if self.dim == 2 else 513
+        if not self.resolutions or len(self.resolutions) > 32:
+            raise ConfigError("resolutions needs 1 to 32 levels, e.g. --set resolutions=[65,129,257]")
+        for r in self.resolutions:
+            check_number("resolutions", r, 2, top, integer=True)
+        if list(self.resolutions) != sorted(set(self.resolutions)):
+            raise ConfigError(f"resolutions must increase from level to level, got {list(self.resolutions)}")
+        for name in ("density_scale", "tv_weight", "tv_color_weight"):
+            check_number(name, getattr(self, name), 0, 1e9)
+
+    @property
+    def color_coeffs(self) -> int:
+        if not self.view_dependent:
+            return 1
+        return 1 + 2 * self.sh_degree if self.dim == 2 else (self.sh_degree + 1) ** 2
+
+
+@dataclass(frozen=True)
+class Levels:
+    """Where each level lives: entries per level, whether dense, and offsets into the two flat tables."""
+
+    resolutions: tuple
+    sizes: tuple         # entries
+    dense: tuple
+    coeffs: tuple        # colour coefficients per channel (K for the view levels, else 1)
+    offsets: tuple       # first entry of each level in the density table
+    color_offsets: tuple  # first float of each level in the colour table (one more: the end)
+
+    def widths(self, n: int) -> tuple[int, int]:
+        """Floats of the density and colour tables when the first ``n`` levels are in use."""
+        return self.offsets[n - 1] + self.sizes[n - 1], self.color_offsets[n]
+
+
+def levels_of(cfg: HashLinearConfig) -> Levels:
+    sizes, dense = [], []
+    for level, r in enumerate(cfg.resolutions):
+        full = r ** cfg.dim
+        is_dense = level < cfg.dense_levels or full <= 2 ** cfg.log2_hashmap_size
+        sizes.append(full if is_dense else 2 ** cfg.log2_hashmap_size)
+        dense.append(is_dense)
+    coeffs = [cfg.color_coeffs if level < cfg.view_levels else 1 for level in range(len(sizes))]
+    offsets = [sum(sizes[:level]) for level in range(len(sizes))]
+    color = [sum(3 * c * s for c, s in zip(coeffs[:level], sizes[:level])) for level in range(len(sizes) + 1)]
+    return Levels(cfg.resolutions, tuple(sizes), tuple(dense), tuple(coeffs), tuple(offsets), tuple(color))
+
+
+def vertex_entry(key: list, level: int, lv: Levels) -> UInt32:
+    """Entry of the vertex at integer coordinates ``key`` within its level: row-major, or hashed."""
+    r = lv.resolutions[level]
+    if lv.dense[level]:
+        return sum((k * r ** a for a, k in enumerate(key)), UInt32(0))
+    index = UInt32(0)
+    for a, k in enumerate(key):
+        index = index ^ k * PRIMES[a]
+    return index % lv.sizes[level]
+
+
+class HashLinearField(Field):
+    """See the module docstring."""
+
+    traceable = True
+    skips_color = True
+
+    def __init__(self, cfg: HashLinearConfig):
+        super().__init__(cfg)
+        self.levels = levels_of(cfg)
+        self.K = cfg.color_coeffs
+
+    def levels_at(self, step: int) -> int:
+        n = len(self.cfg.resolutions)
+        return min(n, min(self.cfg.initial_levels, n) + sum(step >= s for s in self.cfg.add_level_at))
+
+    def levels_in(self, params) -> int:
+        """Levels in use, read from the density table's length."""
+        w = dr.width(params["density"])
+        return max(n for n in range(1, len(self.levels.sizes) + 1) if self.levels.widths(n)[0] <= w)
+
+    def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
+        nd, nc = self.levels.widths(self.levels_at(0))
+        density = np.zeros(nd, np.float32)
+        density[:self.levels.sizes[0]] = self.cfg.density_init / self.cfg.density_scale
+        color = np.zeros(nc, np.float32)
+        color[:self.levels.color_offsets[1]] = np.random.default_rng(seed).normal(0, 0.01, self.levels.color_offsets[1])
+        return {"density": density, "color": color}
+
+    def from_numpy(self, arrays) -> dict:
+        d, c = (np.asarray(arrays[k], np.float32).ravel() for k in ("density", "color"))
+        if (d.size, c.size) not in [self.levels.widths(n) for n in range(1, len(self.levels.sizes) + 1)]:
+            raise CheckpointError(f"tables of {d.size} and {c.size} floats fit no level count of this configuration; "
+                                  "the checkpoint was saved with another configuration")
+        return {"density": Float(d), "color": Float(c)}
+
+    def to_numpy(self, params) -> dict:
+        return {k: np.asarray(params[k]) for k in ("density", "color")}
+
+    def schedule(self, step: int, params) -> dict | None:
+        """Tables grown by the levels that join at ``step`` (zeros), or None."""
+        n = self.levels_at(step)
+        if n == self.levels_in(params):
+            return None
+        old = self.to_numpy(params)
+        new = {k: np.zeros(w, np.float32) for k, w in zip(("density", "color"), self.levels.widths(n))}
+        for k in new:
+            new[k][:old[k].size] = old[k]
+        return self.from_numpy(new)
+
+    def corners(self, x: list, n: int) -> list:
+        """Per level in use: ``[(entry UInt32, weight Float)]`` of the cell corners around ``x``."""
+        out, b = [], self.cfg.bound
+        for level in range(n):
+            r = self.levels.resolutions[level]
+            u = [dr.clip((xi * (1.0 / b) + 1.0) * (0.5 * (r - 1)), 0.0, r - 1.0001) for xi in x]
+            i0 = [dr.floor(ui) for ui in u]
+            out.append([(vertex_entry(key, level, self.levels), w)
+                        for key, w in cell_corners([UInt32(f) for f in i0], [ui - f for ui, f in zip(u, i0)])])
+        return out
+
+    def raw_density(self, params, corners) -> Float:
+        raw = Float(0.0)
+        for level, cs in enumerate(corners):
+            for entry, w in cs:
+                raw = dr.fma(dr.gather(Float, params["density"], self.levels.offsets[level] + entry), w, raw)
+        return raw
+
+    def raw_color(self, params, corners, active=True) -> list:
+        """Summed colour coefficients, ``3 K`` arrays (channel-major); nothing is read where ``active`` is False."""
+        K, lv = self.K, self.levels
+        raw = [Float(0.0)] * (3 * K)
+        for level, cs in enumerate(corners):
+            k_l = lv.coeffs[level]
+            for entry, w in cs:
+                base = lv.color_offsets[level] + entry * (3 * k_l)
+                for c in range(3):
+                    for k in range(k_l):
+                        v = dr.gather(Float, params["color"], base + c * k_l + k, active)
+                        raw[c * K + k] = dr.fma(v, w, raw[c * K + k])
+        return raw
+
+    def _sigma(self, params, x):
+        x = list(x)
+        corners = self.corners(x, self.levels_in(params))
+        raw = self.raw_density(params, corners) * self.cfg.density_scale
+        inside = dr.all([dr.abs(xi) <= self.cfg.bound for xi in x])
+        return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
+
+    def density(self, params, x) -> Float:
+        return self._sigma(params, x)[0]
+
+    def query(self, params, x, d, keep=None):
+        sigma, corners = self._sigma(params, x)
+        raw, K = self.raw_color(params, corners, True if keep is None else keep(sigma)), self.K
+        if K > 1:
+            basis = view_basis(list(d), self.cfg.sh_degree)
+            raw = [sum(raw[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
+        return sigma, [sigmoid(r) for r in raw]
+
+    def regularizer(self, params, seed: UInt32) -> Float | None:
+        """Total variation of the summed raw density and colour coefficients: the mean over vertices of the finest
+        level in use of the squared differences to the next vertex along each axis; None when both weights are 0."""
+        cfg = self.cfg
+        if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
+            return None
+        n = self.levels_in(params)
+        r = self.levels.resolutions[n - 1]
+        v = tv_vertices(seed, cfg.tv_samples, r ** self.dim)
+        step = 2.0 * cfg.bound / (r - 1)
+        coords = [Float((v // r ** a) % r) for a in range(self.dim)]
+        x = [k * step - cfg.bound for k in coords]
+
+        def raw(p):
+            cs = self.corners(p, n)
+            return self.raw_density(params, cs), self.raw_color(params, cs)
+
+        d0, c0 = raw(x)
+        tv_d, tv_c = Float(0.0), Float(0.0)
+        for a in range(self.dim):
+            has = coords[a] < r - 1
+            d1, c1 = raw([xi + step if b == a else xi for b, xi in enumerate(x)])
+            tv_d += dr.select(has, dr.square(d1 - d0), 0.0)
+            tv_c += dr.select(has, sum(dr.square(p - q) for p, q in zip(c1, c0)), 0.0)
+        return cfg.tv_weight * cfg.density_scale ** 2 * dr.mean(tv_d) + cfg.tv_color_weight * dr.mean(tv_c)
