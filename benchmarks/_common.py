@@ -22,6 +22,17 @@ def bunny(n_train: int = 50):
     return cached_dataset("bunny", RigConfig(dim=2, n_train=n_train, n_val=4, n_test=8, **noise_preset(1.0)))
 
 
+def warm_kernels(ds, recipe) -> None:
+    """Train ``recipe`` on ``ds`` untimed, past its last schedule change (a grid's upsampling, a level joining),
+    so that every kernel its timed run needs is in Dr.Jit's disk cache: a time budget then buys steps, not
+    compilation, for every contender alike (as on a user's second run)."""
+    from mitnerf.train.fit import fit_and_evaluate
+
+    args = recipe.model.field_args
+    last = max((*args.get("upsample_at", ()), *args.get("add_level_at", ())), default=0)
+    fit_and_evaluate(ds, recipe.at_steps(last + 2, progress=False, val_every=0), geometry_metrics=False)
+
+
 def backend(name, model_cfg, dataset, batch=1024, threads=2):
     """A backend of engine ``name`` holding ``dataset``'s training rays."""
     tc = TrainConfig(batch_rays=batch, threads=threads, progress=False)

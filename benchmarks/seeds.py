@@ -1,12 +1,12 @@
 """Stability of every recipe, measured: 100 seeded short fits per field family on the bunny.
 
-Each 2D recipe (``grid-2d``, ``hashgrid-2d``, ``vanilla-2d``) is trained ``--seeds`` times
+Each 2D recipe (``grid-2d``, ``hashlinear-2d``, ``hashgrid-2d``, ``vanilla-2d``) is trained ``--seeds`` times
 (seed = initial weights, batches, jitter) for a short fixed number of steps on the
 NeRF2D-protocol bunny (50 noisy views of 100 px); every run is classified by
 :func:`mitnerf.train.evaluate.classify` (``nan``, ``collapsed`` or ``ok``) and its test
 PSNR kept. Prints a table and records it in ``results.json`` (``seeds/<recipe>``).
 
-    python benchmarks/seeds.py [--seeds 100] [--families grid hashgrid vanilla]
+    python benchmarks/seeds.py [--seeds 100] [--families grid hashlinear hashgrid vanilla]
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
 from mitnerf.results import record_result
 
-STEPS = {"grid": 300, "hashgrid": 300, "vanilla": 300}
+STEPS = {"grid": 300, "hashlinear": 300, "hashgrid": 300, "vanilla": 300}
 """Steps of each short fit (a few seconds each)."""
 
 

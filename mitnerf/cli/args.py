@@ -94,7 +94,7 @@ OVERRIDES = [
 def add_recipe_flags(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("recipe (every flag overrides one setting; unset: the recipe's value)")
     g.add_argument("--recipe", default=None, help="a recipe by name (`mitnerf recipes`)")
-    g.add_argument("--field", default=None, help="the tuned recipe of this field family (grid, hashgrid, vanilla)")
+    g.add_argument("--field", default=None, help="the tuned recipe of this field family (grid, hashlinear, hashgrid, vanilla)")
     for flag, key, kw, text in OVERRIDES:
         g.add_argument(flag, dest=f"set_{key}", default=None, help=text, **kw)
     g.add_argument("--set", dest="sets", action="append", default=[], type=key_value, metavar="KEY=VALUE",
