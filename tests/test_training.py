@@ -62,8 +62,9 @@ def test_torch_trains_with_depth_supervision(bunny_small):
     assert rec.status == "ok" and rec.psnr > 10 and np.isfinite(rec.depth_error)
 
 
-def test_checkpoints_reload_to_identical_renders(bunny_small, tmp_path):
-    run = fit(bunny_small, small(iters=20), "drjit")
+@pytest.mark.parametrize("recipe", ["vanilla-2d", "hashlinear-2d"])    # the second saved after a level joined
+def test_checkpoints_reload_to_identical_renders(bunny_small, tmp_path, recipe):
+    run = fit(bunny_small, small(recipe, iters=20), "drjit")
     save_checkpoint(run, tmp_path / "ckpt")
     o, d = bunny_small["test"].cameras.rays()
     o, d = o.reshape(-1, 2), d.reshape(-1, 2)
