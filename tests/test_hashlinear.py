@@ -103,3 +103,11 @@ def test_twin_agrees_on_values_and_gradients(dim):
     np.testing.assert_allclose(float(reg[0]), float(treg.detach()), rtol=1e-4)
     for k, tp in (("density", t.density_table), ("color", t.color_table)):
         np.testing.assert_allclose(np.asarray(dr.grad(p[k])), tp.grad.numpy(), rtol=1e-3, atol=1e-4)
+
+
+def test_auto_judges_its_size_with_every_level():
+    from mitnerf.train.auto import LADDER, final_params
+
+    args = dict(LADDER[2])["hashlinear"]
+    # 65^2 x (1 + 3 x 3) + 129^2 x (1 + 3) + 2^13 x (1 + 3): the harmonics on the coarsest level only
+    assert final_params("hashlinear", args, 2) == 65 ** 2 * 10 + 129 ** 2 * 4 + 2 ** 13 * 4 == 141_582

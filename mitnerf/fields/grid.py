@@ -23,8 +23,23 @@ from ..rng import hash_u32
 from .base import Field, cell_corners, check_config, density_activation, sigmoid
 
 
+class GridSettings:
+    """What the dense grid's config and the configs built like it (:mod:`.hashlinear`) share: the count of view
+    harmonics, and the checks of the density scale and the total-variation weights."""
+
+    def check_weights(self) -> None:
+        for name in ("density_scale", "tv_weight", "tv_color_weight"):
+            check_number(name, getattr(self, name), 0, 1e9)
+
+    @property
+    def color_coeffs(self) -> int:
+        if not self.view_dependent:
+            return 1
+        return 1 + 2 * self.sh_degree if self.dim == 2 else (self.sh_degree + 1) ** 2
+
+
 @dataclass
-class GridConfig:
+class GridConfig(GridSettings):
     """A dense grid of density and colour."""
 
     dim: int = 2
@@ -61,14 +76,7 @@ class GridConfig:
         self.upsample_at = tuple(self.upsample_at)
         top = 8193 if self.dim == 2 else 513
         check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26), sh_degree=(1, 2))
-        for name in ("density_scale", "tv_weight", "tv_color_weight"):
-            check_number(name, getattr(self, name), 0, 1e9)
-
-    @property
-    def color_coeffs(self) -> int:
-        if not self.view_dependent:
-            return 1
-        return 1 + 2 * self.sh_degree if self.dim == 2 else (self.sh_degree + 1) ** 2
+        self.check_weights()
 
     def resolution_at(self, step: int) -> int:
         res = self.initial_resolution

@@ -30,12 +30,12 @@ from drjit.auto.ad import Float, UInt32
 
 from ..errors import CheckpointError, ConfigError, check_number
 from .base import Field, cell_corners, check_config, density_activation, sigmoid
-from .grid import tv_vertices, view_basis
+from .grid import GridSettings, tv_vertices, view_basis
 from .hashenc import PRIMES
 
 
 @dataclass
-class HashLinearConfig:
+class HashLinearConfig(GridSettings):
     """Levels and tables, with the dense grid's activations and regularisers."""
 
     dim: int = 2
@@ -82,14 +82,7 @@ class HashLinearConfig:
             check_number("resolutions", r, 2, top, integer=True)
         if list(self.resolutions) != sorted(set(self.resolutions)):
             raise ConfigError(f"resolutions must increase from level to level, got {list(self.resolutions)}")
-        for name in ("density_scale", "tv_weight", "tv_color_weight"):
-            check_number(name, getattr(self, name), 0, 1e9)
-
-    @property
-    def color_coeffs(self) -> int:
-        if not self.view_dependent:
-            return 1
-        return 1 + 2 * self.sh_degree if self.dim == 2 else (self.sh_degree + 1) ** 2
+        self.check_weights()
 
 
 @dataclass(frozen=True)

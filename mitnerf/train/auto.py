@@ -23,10 +23,12 @@ LADDER = {
     2: [("grid", dict(resolution=r, initial_resolution=min(r, 129), upsample_at=(150, 400)))
         for r in (33, 65, 129, 257, 513)]
     + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
-    + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (12, 14)],
+    + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (12, 14)]
+    + [("hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13))],
     3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
     + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
-    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)],
+    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)]
+    + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))],
 }
 """Candidate (family, settings on top of the family's recipe) per dimension, probed smallest first."""
 
@@ -48,7 +50,7 @@ class AutoConfig:
     ones are not probed."""
     time_budget: float = 300.0
     """Seconds for the whole search; past it, the best candidate so far is returned."""
-    families: tuple = ("grid", "vanilla", "hashgrid")
+    families: tuple = ("grid", "vanilla", "hashgrid", "hashlinear")
     """Field families to consider."""
     vd_gain: float = 0.2
     """Minimum validation-PSNR gain (dB) for view dependence to be kept."""
@@ -96,6 +98,16 @@ def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> 
     return base.override(**kw, time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)
 
 
+def final_params(family: str, args: dict, dim: int) -> int:
+    """Parameters of a candidate at the end of its training (a grid at its final resolution, a linearly decoded
+    hash grid with all its levels): what its size is judged by."""
+    if "initial_resolution" in args:
+        args = {**args, "initial_resolution": args["resolution"]}
+    if family == "hashlinear":
+        args = {**args, "initial_levels": len(args["resolutions"])}
+    return sum(v.size for v in make_field(family, **args, dim=dim).init_numpy(0).values())
+
+
 def pick_size(sized: list[Trial], tolerance: float, target: float | None = None) -> tuple[Trial, bool, str]:
     """``(chosen, reached, why)`` of size probes listed smallest first: the first to reach ``target`` when
     one is given (else the best), otherwise the first within ``tolerance`` dB of the best."""
@@ -115,9 +127,8 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
     cfg = cfg or AutoConfig()
     t0 = time.perf_counter()
     spent = lambda: time.perf_counter() - t0 > cfg.time_budget
-    final = lambda args: {**args, "initial_resolution": args["resolution"]} if "initial_resolution" in args else args
-    size = lambda fam, args: sum(v.size for v in make_field(fam, **final(args), dim=dataset.dim).init_numpy(0).values())
-    cands = sorted((c for c in LADDER[dataset.dim] if c[0] in cfg.families), key=lambda c: size(*c))
+    cands = sorted((c for c in LADDER[dataset.dim] if c[0] in cfg.families),
+                   key=lambda c: final_params(*c, dataset.dim))
     trials: list[Trial] = []
 
     def trial(recipe: Recipe, note: str) -> Trial:
