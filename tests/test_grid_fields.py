@@ -121,6 +121,15 @@ def test_auto_picks_the_smallest_size_near_the_best_probe():
     assert (chosen.params, reached) == (16_000, False) and "none reached 40.0 dB" in why
 
 
+def test_auto_switches_an_option_only_where_it_gains_the_threshold():
+    from mitnerf.train.auto import switch
+
+    assert switch(True, 0.06, 0.2) == (False, "kept")         # on in the recipe; off gains 0.06 dB: stays on
+    assert switch(True, 0.3, 0.2) == (True, "dropped")
+    assert switch(False, 0.1, 0.2) == (False, "left off")
+    assert switch(False, 0.2, 0.2) == (True, "added")         # exactly the threshold is enough
+
+
 def test_auto_keeps_what_the_user_typed():
     """``fit --auto --lr 0.02 --time-budget 3``: the search picks the model, the user's settings still hold."""
     from mitnerf.data.cache import cached_dataset

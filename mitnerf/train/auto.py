@@ -4,8 +4,9 @@
 candidate's size) for ``probe_time`` seconds of the clock, so a faster model's extra steps count as they will in
 the real run; the score is validation PSNR. The chosen size is the smallest candidate within ``tolerance`` dB of
 the best probe, or, with ``target_psnr``, the first to reach it. Then half the samples per ray are tried, and
-view dependence and each regulariser are switched the other way one at a time: each is kept only where it gains
-``vd_gain`` / ``reg_gain`` dB. Every trial and every decision's reason is kept."""
+view dependence and each regulariser are switched the other way from the recipe, one at a time: a switch is taken
+only where it gains ``vd_gain`` / ``reg_gain`` dB of validation PSNR, so the recipe's tuned setting stands where
+a few validation views cannot tell the two apart. Every trial and every decision's reason is kept."""
 
 from __future__ import annotations
 
@@ -53,12 +54,12 @@ class AutoConfig:
     families: tuple = ("grid", "vanilla", "hashgrid", "hashlinear")
     """Field families to consider."""
     vd_gain: float = 0.2
-    """Minimum validation-PSNR gain (dB) for view dependence to be kept."""
+    """Minimum validation-PSNR gain (dB) for switching view dependence the other way from the recipe."""
     regularisers: tuple = (("tv_color_weight", 1e-2), ("distortion_weight", 1e-3), ("opacity_weight", 1e-3))
     """(training or field setting, weight) pairs tried one at a time on the chosen model, where its family
     has the setting."""
     reg_gain: float = 0.2
-    """Minimum validation-PSNR gain (dB) for a regulariser to be kept."""
+    """Minimum validation-PSNR gain (dB) for switching a regulariser the other way from the recipe."""
     seed: int = 0
     """Seed of every probe."""
 
@@ -122,6 +123,13 @@ def pick_size(sized: list[Trial], tolerance: float, target: float | None = None)
                          f"the smallest within {tolerance} dB of the best probe ({name(top)})")
 
 
+def switch(now: bool, gain: float, need: float) -> tuple[bool, str]:
+    """Whether to switch an option away from the recipe's setting ``now``, the switch gaining ``gain`` dB of
+    validation PSNR, and the word for the outcome (``dropped``/``added`` or ``kept``/``left off``)."""
+    take = gain >= need
+    return take, ("dropped" if now else "added") if take else ("kept" if now else "left off")
+
+
 def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
     """The chosen model and its options; see the module docstring."""
     cfg = cfg or AutoConfig()
@@ -154,7 +162,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
                        f"lose quality ({t.val_psnr:.2f} dB): keep {best.recipe.model.render.n_coarse}"))
         best = t if enough else best
     options = [("view_dependent", True, cfg.vd_gain)] + [(k, w, cfg.reg_gain) for k, w in cfg.regularisers]
-    for key, on, need in options:                  # each option has to earn its place
+    for key, on, need in options:                  # a switch away from the recipe has to earn its place
         if not best.recipe.has(key):
             continue
         now = best.recipe.get(key)
@@ -165,11 +173,11 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
             continue
         t = trial(best.recipe.override(**{key: type(on)(0) if now else on}), key.replace("view_dependent",
                                                                                          "view dependence"))
-        with_it, without = (best, t) if now else (t, best)
-        gain = with_it.val_psnr - without.val_psnr
-        reasons.append(f"{label} {'kept' if gain >= need else 'dropped'}: {gain:+.2f} dB validation PSNR with it "
-                       f"(threshold {need} dB)")
-        best = with_it if gain >= need else without
+        gain = t.val_psnr - best.val_psnr
+        take, verdict = switch(bool(now), gain, need)
+        reasons.append(f"{label} {verdict}: switching it {'off' if now else 'on'} gains {gain:+.2f} dB validation "
+                       f"PSNR (needs {need} dB)")
+        best = t if take else best
     return AutoResult(best.recipe, trials, reached, reasons)
 
 
