@@ -102,6 +102,7 @@ class Levels:
 
 
 def levels_of(cfg: HashLinearConfig) -> Levels:
+    """The table layout of ``cfg`` (both engines build theirs from it)."""
     sizes, dense = [], []
     for level, r in enumerate(cfg.resolutions):
         full = r ** cfg.dim
