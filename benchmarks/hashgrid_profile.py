@@ -3,7 +3,8 @@
 One run, 2 threads, the ``hashgrid-2d``, ``hashlinear-2d`` (a hash grid decoded linearly, no network) and
 ``grid-2d`` recipes (1024 rays per step):
 
-* the training step of each, median over rounds (steps alternate between contenders);
+* the training step of each, median over rounds (steps alternate between contenders); these are early step
+  numbers, before the grid upsamples and before the linearly decoded grid's finest level joins;
 * the hash grid's step split: the encoding alone (forward and backward of
   :func:`mitnerf.fields.hashenc.hash_encode` on as many points as a step evaluates, table
   gradient by scatter-add), the step with the occupancy grid switched the other way from
