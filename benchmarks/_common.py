@@ -26,11 +26,15 @@ def warm_kernels(ds, recipe) -> None:
     """Train ``recipe`` on ``ds`` untimed, past its last schedule change (a grid's upsampling, a level joining),
     so that every kernel its timed run needs is in Dr.Jit's disk cache: a time budget then buys steps, not
     compilation, for every contender alike (as on a user's second run)."""
-    from mitnerf.train.fit import fit_and_evaluate
+    from mitnerf.train.fit import fit
+    from mitnerf.train.loop import TrainingFailed
 
     args = recipe.model.field_args
     last = max((*args.get("upsample_at", ()), *args.get("add_level_at", ())), default=0)
-    fit_and_evaluate(ds, recipe.at_steps(last + 2, progress=False, val_every=0), geometry_metrics=False)
+    try:                                  # trained, not evaluated: only the kernels are wanted
+        fit(ds, recipe.at_steps(last + 2, progress=False, val_every=0), "drjit", progress=False)
+    except TrainingFailed:                # the timed run meets and records the same failure
+        pass
 
 
 def backend(name, model_cfg, dataset, batch=1024, threads=2):

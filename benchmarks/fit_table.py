@@ -31,7 +31,7 @@ from mitnerf.data.rig import RigConfig, noise_preset
 from mitnerf.results import load_results, record_result
 from mitnerf.train.auto import AutoConfig, choose_recipe
 from mitnerf.train.fit import fit_and_evaluate
-from mitnerf.train.recipes import RECIPES, recipe_for
+from mitnerf.train.recipes import recipe_for
 
 _REG = dict(AutoConfig.regularisers)     # the losses and weights fit --auto tries
 _DEPTH = {k: recipe_for("grid", 2).get(k) for k in ("free_space_weight", "solid_weight")}   # losses on depth maps
@@ -79,7 +79,7 @@ def show(scene: str, rows: list[dict], dim: int) -> None:
 
 def table(ds, budget: float, auto: bool, options=tuple(OPTIONS), families=FAMILIES) -> list[dict]:
     rows = []
-    for family in (f for f in families if f"{f}-{ds.dim}d" in RECIPES):     # the families tuned for this dimension
+    for family in families:
         base = recipe_for(family, ds.dim).override(time_budget=budget, iters=10 ** 6, progress=False)
         done = []
         for name in options:

@@ -12,6 +12,7 @@ empty space and the inside of a surface cost that much less in the primal and th
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import drjit as dr
@@ -78,6 +79,10 @@ class GridConfig(GridSettings):
         check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26), sh_degree=(1, 2))
         self.check_weights()
 
+    def final(self) -> "GridConfig":
+        """This config at the end of its coarse-to-fine schedule (what its size is judged by)."""
+        return dataclasses.replace(self, initial_resolution=self.resolution)
+
     def resolution_at(self, step: int) -> int:
         res = self.initial_resolution
         for _ in range(sum(step >= s for s in self.upsample_at)):     # one doubling per step passed
@@ -85,13 +90,19 @@ class GridConfig(GridSettings):
         return res
 
 
+def lattice_corners(x: list, bound: float, res: int):
+    """``(integer coordinates, bi/trilinear weight)`` of the cell corners around points ``x`` (D arrays) on a
+    lattice of ``res^D`` vertices over ``[-bound, bound]^D`` (vertex ``k`` at ``-bound + 2 bound k / (res - 1)``)."""
+    u = [dr.clip((xi * (1.0 / bound) + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001) for xi in x]
+    i0 = [dr.floor(ui) for ui in u]
+    return cell_corners([UInt32(f) for f in i0], [ui - f for ui, f in zip(u, i0)])
+
+
 def corner_weights(x: list, bound: float, res: int):
     """``([(flat index UInt32, bi/trilinear weight Float)] of the cell corners, inside Bool)`` of points ``x``
     (D arrays) in a grid of ``res^D`` vertices; ``inside``: whether a point lies in ``[-bound, bound]^D``."""
-    u = [dr.clip((xi * (1.0 / bound) + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001) for xi in x]
-    i0 = [dr.floor(ui) for ui in u]
-    keys = cell_corners([UInt32(f) for f in i0], [ui - f for ui, f in zip(u, i0)])
-    corners = [(sum((k * res ** a for a, k in enumerate(key)), UInt32(0)), weight) for key, weight in keys]
+    corners = [(sum((k * res ** a for a, k in enumerate(key)), UInt32(0)), weight)
+               for key, weight in lattice_corners(x, bound, res)]
     return corners, dr.all([dr.abs(xi) <= bound for xi in x])
 
 
@@ -118,6 +129,15 @@ def view_basis(d: list, degree: int) -> list:
             x, y, z = d
             out += [x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y]
     return out
+
+
+def harmonic_rgb(raw: list, d: list, K: int, degree: int) -> list:
+    """RGB from ``3 K`` raw colour coefficients (channel-major) at unit view directions ``d``: the harmonics'
+    weighted sum per channel (none when ``K`` is 1), then a sigmoid. Dr.Jit arrays."""
+    if K > 1:
+        basis = view_basis(list(d), degree)
+        raw = [sum(raw[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
+    return [sigmoid(r) for r in raw]
 
 
 class GridField(Field):
@@ -155,10 +175,7 @@ class GridField(Field):
         sigma, corners = self._sigma(params, x)
         K = self.cfg.color_coeffs
         raw = interpolate(params["color"], 3 * K, corners, True if keep is None else keep(sigma))
-        if K > 1:
-            basis = view_basis(list(d), self.cfg.sh_degree)
-            raw = [sum(raw[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
-        return sigma, [sigmoid(r) for r in raw]
+        return sigma, harmonic_rgb(raw, d, K, self.cfg.sh_degree)
 
     def resize(self, params, res: int) -> dict:
         """Resample both grids to ``res`` vertices per axis (coarse to fine)."""

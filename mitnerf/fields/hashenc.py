@@ -54,11 +54,18 @@ def hash_layout(dim: int, n_levels: int, features: int, hashmap_size: int, base_
                       tuple(r ** dim <= n for r, n in zip(res, sizes)))
 
 
-def _entry(key: list, level: int, layout: HashLayout) -> UInt32:
+def lattice_index(key: list, res: int, size: int, dense: bool) -> UInt32:
+    """Entry of the vertex at integer coordinates ``key`` in a level of ``res^D`` vertices and ``size`` entries:
+    its row-major index when ``dense``, else the XOR-of-primes hash, modulo ``size``."""
     index = UInt32(0)
-    for d, k in enumerate(key):        # dense: the vertex's row-major index; else the XOR-of-primes hash
-        index = index + k * layout.resolutions[level] ** d if layout.dense[level] else index ^ k * PRIMES[d]
-    return layout.offsets[level] + index % layout.sizes[level]
+    for d, k in enumerate(key):
+        index = index + k * res ** d if dense else index ^ k * PRIMES[d]
+    return index % size
+
+
+def _entry(key: list, level: int, layout: HashLayout) -> UInt32:
+    return layout.offsets[level] + lattice_index(key, layout.resolutions[level], layout.sizes[level],
+                                                 layout.dense[level])
 
 
 def hash_encode(table: Float, x: list, layout: HashLayout) -> list:

@@ -22,6 +22,7 @@ Twin: :mod:`mitnerf.reference.fields.hashlinear`.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import drjit as dr
@@ -29,9 +30,9 @@ import numpy as np
 from drjit.auto.ad import Float, UInt32
 
 from ..errors import CheckpointError, ConfigError, check_number
-from .base import Field, cell_corners, check_config, density_activation, sigmoid
-from .grid import GridSettings, tv_vertices, view_basis
-from .hashenc import PRIMES
+from .base import Field, check_config, density_activation
+from .grid import GridSettings, harmonic_rgb, lattice_corners, tv_vertices
+from .hashenc import lattice_index
 
 
 @dataclass
@@ -84,6 +85,15 @@ class HashLinearConfig(GridSettings):
             raise ConfigError(f"resolutions must increase from level to level, got {list(self.resolutions)}")
         self.check_weights()
 
+    def levels_at(self, step: int) -> int:
+        """Levels in use at training step ``step``."""
+        n = len(self.resolutions)
+        return min(n, min(self.initial_levels, n) + sum(step >= s for s in self.add_level_at))
+
+    def final(self) -> "HashLinearConfig":
+        """This config with every level in use (what its size is judged by)."""
+        return dataclasses.replace(self, initial_levels=len(self.resolutions))
+
 
 @dataclass(frozen=True)
 class Levels:
@@ -99,6 +109,10 @@ class Levels:
     def widths(self, n: int) -> tuple[int, int]:
         """Floats of the density and colour tables when the first ``n`` levels are in use."""
         return self.offsets[n - 1] + self.sizes[n - 1], self.color_offsets[n]
+
+    def in_use(self, density_width: int) -> int:
+        """Levels in use, read from the density table's length."""
+        return max(n for n in range(1, len(self.sizes) + 1) if self.widths(n)[0] <= density_width)
 
 
 def levels_of(cfg: HashLinearConfig) -> Levels:
@@ -117,13 +131,7 @@ def levels_of(cfg: HashLinearConfig) -> Levels:
 
 def vertex_entry(key: list, level: int, lv: Levels) -> UInt32:
     """Entry of the vertex at integer coordinates ``key`` within its level: row-major, or hashed."""
-    r = lv.resolutions[level]
-    if lv.dense[level]:
-        return sum((k * r ** a for a, k in enumerate(key)), UInt32(0))
-    index = UInt32(0)
-    for a, k in enumerate(key):
-        index = index ^ k * PRIMES[a]
-    return index % lv.sizes[level]
+    return lattice_index(key, lv.resolutions[level], lv.sizes[level], lv.dense[level])
 
 
 class HashLinearField(Field):
@@ -137,17 +145,11 @@ class HashLinearField(Field):
         self.levels = levels_of(cfg)
         self.K = cfg.color_coeffs
 
-    def levels_at(self, step: int) -> int:
-        n = len(self.cfg.resolutions)
-        return min(n, min(self.cfg.initial_levels, n) + sum(step >= s for s in self.cfg.add_level_at))
-
     def levels_in(self, params) -> int:
-        """Levels in use, read from the density table's length."""
-        w = dr.width(params["density"])
-        return max(n for n in range(1, len(self.levels.sizes) + 1) if self.levels.widths(n)[0] <= w)
+        return self.levels.in_use(dr.width(params["density"]))
 
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
-        nd, nc = self.levels.widths(self.levels_at(0))
+        nd, nc = self.levels.widths(self.cfg.levels_at(0))
         density = np.zeros(nd, np.float32)
         density[:self.levels.sizes[0]] = self.cfg.density_init / self.cfg.density_scale
         color = np.zeros(nc, np.float32)
@@ -166,7 +168,7 @@ class HashLinearField(Field):
 
     def schedule(self, step: int, params) -> dict | None:
         """Tables grown by the levels that join at ``step`` (zeros), or None."""
-        n = self.levels_at(step)
+        n = self.cfg.levels_at(step)
         if n == self.levels_in(params):
             return None
         old = self.to_numpy(params)
@@ -177,14 +179,9 @@ class HashLinearField(Field):
 
     def corners(self, x: list, n: int) -> list:
         """Per level in use: ``[(entry UInt32, weight Float)]`` of the cell corners around ``x``."""
-        out, b = [], self.cfg.bound
-        for level in range(n):
-            r = self.levels.resolutions[level]
-            u = [dr.clip((xi * (1.0 / b) + 1.0) * (0.5 * (r - 1)), 0.0, r - 1.0001) for xi in x]
-            i0 = [dr.floor(ui) for ui in u]
-            out.append([(vertex_entry(key, level, self.levels), w)
-                        for key, w in cell_corners([UInt32(f) for f in i0], [ui - f for ui, f in zip(u, i0)])])
-        return out
+        return [[(vertex_entry(key, level, self.levels), w)
+                 for key, w in lattice_corners(x, self.cfg.bound, self.levels.resolutions[level])]
+                for level in range(n)]
 
     def raw_density(self, params, corners) -> Float:
         raw = Float(0.0)
@@ -219,11 +216,8 @@ class HashLinearField(Field):
 
     def query(self, params, x, d, keep=None):
         sigma, corners = self._sigma(params, x)
-        raw, K = self.raw_color(params, corners, True if keep is None else keep(sigma)), self.K
-        if K > 1:
-            basis = view_basis(list(d), self.cfg.sh_degree)
-            raw = [sum(raw[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
-        return sigma, [sigmoid(r) for r in raw]
+        raw = self.raw_color(params, corners, True if keep is None else keep(sigma))
+        return sigma, harmonic_rgb(raw, d, self.K, self.cfg.sh_degree)
 
     def regularizer(self, params, seed: UInt32) -> Float | None:
         """Total variation of the summed raw density and colour coefficients: the mean over vertices of the finest

@@ -16,7 +16,7 @@ import time
 from dataclasses import dataclass, field
 
 from ..data.dataset import Dataset
-from ..fields import make_field
+from ..fields import FIELDS, field_config
 from .fit import fit
 from .recipes import Recipe, recipe_for
 
@@ -102,11 +102,9 @@ def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> 
 def final_params(family: str, args: dict, dim: int) -> int:
     """Parameters of a candidate at the end of its training (a grid at its final resolution, a linearly decoded
     hash grid with all its levels): what its size is judged by."""
-    if "initial_resolution" in args:
-        args = {**args, "initial_resolution": args["resolution"]}
-    if family == "hashlinear":
-        args = {**args, "initial_levels": len(args["resolutions"])}
-    return sum(v.size for v in make_field(family, **args, dim=dim).init_numpy(0).values())
+    cfg = field_config(family, **args, dim=dim)
+    cfg = cfg.final() if hasattr(cfg, "final") else cfg             # a field with a coarse-to-fine schedule
+    return sum(v.size for v in FIELDS[family][1](cfg).init_numpy(0).values())
 
 
 def pick_size(sized: list[Trial], tolerance: float, target: float | None = None) -> tuple[Trial, bool, str]:

@@ -13,20 +13,33 @@ from ...rng import batch_indices
 from .mlp import TwinField, density_activation
 
 
-def corner_weights(x: torch.Tensor, bound: float, res: int):
-    """``x [n, D]`` -> list of (flat index [n], weight [n]) and inside [n]."""
+def lattice_corners(x: torch.Tensor, bound: float, res: int) -> list:
+    """``x [n, D]`` -> list of (D integer coordinates [n], weight [n]), in the Dr.Jit corner order."""
     D = x.shape[-1]
     u = torch.clamp((x / bound + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001)
     i0 = torch.floor(u)
     frac = u - i0
     i0 = i0.long()
-    inside = (x.abs() <= bound).all(dim=-1)
     corners = []
     for c in range(1 << D):
         bits = [(c >> a) & 1 for a in range(D)]
-        index = sum((i0[:, a] + bit) * res ** a for a, bit in enumerate(bits))
-        corners.append((index, math.prod(frac[:, a] if bit else 1.0 - frac[:, a] for a, bit in enumerate(bits))))
-    return corners, inside
+        corners.append(([i0[:, a] + bit for a, bit in enumerate(bits)],
+                        math.prod(frac[:, a] if bit else 1.0 - frac[:, a] for a, bit in enumerate(bits))))
+    return corners
+
+
+def corner_weights(x: torch.Tensor, bound: float, res: int):
+    """``x [n, D]`` -> list of (flat index [n], weight [n]) and inside [n]."""
+    corners = [(sum(k * res ** a for a, k in enumerate(key)), w) for key, w in lattice_corners(x, bound, res)]
+    return corners, (x.abs() <= bound).all(dim=-1)
+
+
+def harmonic_rgb(raw: torch.Tensor, d: torch.Tensor, degree: int) -> torch.Tensor:
+    """``raw [n, 3, K]`` colour coefficients at unit directions ``d [n, D]`` -> RGB ``[n, 3]``."""
+    if raw.shape[-1] > 1:
+        basis = torch.stack(view_basis(list(d.unbind(1)), degree), 1)    # [n, K]
+        raw = raw * basis[:, None, :]
+    return torch.sigmoid(raw.sum(-1))
 
 
 def interpolate(grid: torch.Tensor, corners) -> torch.Tensor:
@@ -78,11 +91,8 @@ class GridField(TwinField):
     def query(self, x, d):
         corners, inside = corner_weights(x, self.cfg.bound, self.res)
         sigma = self._sigma(corners, inside)
-        K, raw = self.cfg.color_coeffs, interpolate(self.color_grid, corners)
-        if K > 1:
-            basis = torch.stack(view_basis(list(d.unbind(1)), self.cfg.sh_degree), 1)    # [n, K]
-            raw = (raw.reshape(-1, 3, K) * basis[:, None, :]).sum(-1)
-        return sigma, torch.sigmoid(raw)
+        raw = interpolate(self.color_grid, corners).reshape(-1, 3, self.cfg.color_coeffs)
+        return sigma, harmonic_rgb(raw, d, self.cfg.sh_degree)
 
     def regularizer(self, seed: int):
         cfg, res = self.cfg, self.res

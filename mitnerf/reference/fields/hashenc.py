@@ -9,15 +9,20 @@ import torch
 from ...fields.hashenc import PRIMES, HashLayout
 
 
-def _entry(key: list, level: int, layout: HashLayout) -> torch.Tensor:
-    r, n = layout.resolutions[level], layout.sizes[level]
+def lattice_index(key: list, res: int, size: int, dense: bool) -> torch.Tensor:
+    """Twin of :func:`mitnerf.fields.hashenc.lattice_index` (uint32 arithmetic in int64)."""
     mask, index = 0xFFFFFFFF, torch.zeros_like(key[0])
     for d, k in enumerate(key):
-        if layout.dense[level]:
-            index = (index + k * r ** d) & mask
+        if dense:
+            index = (index + k * res ** d) & mask
         else:
             index = index ^ ((k * PRIMES[d]) & mask)     # uint32 multiply, in int64
-    return layout.offsets[level] + index % n
+    return index % size
+
+
+def _entry(key: list, level: int, layout: HashLayout) -> torch.Tensor:
+    return layout.offsets[level] + lattice_index(key, layout.resolutions[level], layout.sizes[level],
+                                                 layout.dense[level])
 
 
 def hash_encode(table: torch.Tensor, x: torch.Tensor, layout: HashLayout) -> torch.Tensor:

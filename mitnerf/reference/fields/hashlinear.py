@@ -2,47 +2,33 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import torch
 from torch import nn
 
 from ...errors import CheckpointError
-from ...fields.hashenc import PRIMES
 from ...fields.hashlinear import HashLinearConfig, Levels, levels_of
-from ...fields.grid import view_basis
-from .grid import tv_vertices
+from .grid import harmonic_rgb, lattice_corners, tv_vertices
+from .hashenc import lattice_index
 from .mlp import TwinField, density_activation
 
 
 def vertex_entry(key: list, level: int, lv: Levels) -> torch.Tensor:
-    """``key``: D int64 tensors ``[n]`` -> entry within the level ``[n]`` (uint32 arithmetic in int64)."""
-    r, mask = lv.resolutions[level], 0xFFFFFFFF
-    if lv.dense[level]:
-        return sum(k * r ** a for a, k in enumerate(key))
-    index = torch.zeros_like(key[0])
-    for a, k in enumerate(key):
-        index = index ^ ((k * PRIMES[a]) & mask)
-    return index % lv.sizes[level]
+    """``key``: D int64 tensors ``[n]`` -> entry within the level ``[n]``."""
+    return lattice_index(key, lv.resolutions[level], lv.sizes[level], lv.dense[level])
 
 
 class HashLinearField(TwinField):
     def __init__(self, cfg: HashLinearConfig):
         super().__init__(cfg)
         self.levels, self.K = levels_of(cfg), cfg.color_coeffs
-        nd, nc = self.levels.widths(self.levels_at(0))
+        nd, nc = self.levels.widths(cfg.levels_at(0))
         self.density_table = nn.Parameter(torch.zeros(nd))
         self.color_table = nn.Parameter(torch.zeros(nc))
 
-    def levels_at(self, step: int) -> int:
-        n = len(self.cfg.resolutions)
-        return min(n, min(self.cfg.initial_levels, n) + sum(step >= s for s in self.cfg.add_level_at))
-
     @property
     def n_levels(self) -> int:
-        w = self.density_table.shape[0]
-        return max(n for n in range(1, len(self.levels.sizes) + 1) if self.levels.widths(n)[0] <= w)
+        return self.levels.in_use(self.density_table.shape[0])
 
     def load_numpy(self, arrays) -> None:
         d, c = (torch.as_tensor(np.asarray(arrays[k], np.float32).ravel()) for k in ("density", "color"))
@@ -54,7 +40,7 @@ class HashLinearField(TwinField):
         return {"density": self.density_table.detach().numpy().copy(), "color": self.color_table.detach().numpy().copy()}
 
     def schedule(self, step: int) -> bool:
-        n = self.levels_at(step)
+        n = self.cfg.levels_at(step)
         if n == self.n_levels:
             return False
         nd, nc = self.levels.widths(n)
@@ -66,19 +52,9 @@ class HashLinearField(TwinField):
 
     def corners(self, x: torch.Tensor, n: int) -> list:
         """``x [m, D]`` -> per level: ``[(entry [m], weight [m])]``."""
-        out, b, D = [], self.cfg.bound, x.shape[-1]
-        for level in range(n):
-            r = self.levels.resolutions[level]
-            u = torch.clamp((x / b + 1.0) * (0.5 * (r - 1)), 0.0, r - 1.0001)
-            i0 = torch.floor(u)
-            frac, i0 = u - i0, i0.long()
-            cs = []
-            for c in range(1 << D):
-                bits = [(c >> a) & 1 for a in range(D)]
-                w = math.prod(frac[:, a] if bit else 1.0 - frac[:, a] for a, bit in enumerate(bits))
-                cs.append((vertex_entry([i0[:, a] + bit for a, bit in enumerate(bits)], level, self.levels), w))
-            out.append(cs)
-        return out
+        return [[(vertex_entry(key, level, self.levels), w)
+                 for key, w in lattice_corners(x, self.cfg.bound, self.levels.resolutions[level])]
+                for level in range(n)]
 
     def raw_density(self, corners) -> torch.Tensor:
         return sum(self.density_table[self.levels.offsets[level] + e] * w
@@ -106,11 +82,7 @@ class HashLinearField(TwinField):
 
     def query(self, x, d):
         sigma, corners = self._sigma(x)
-        raw = self.raw_color(corners)
-        if self.K > 1:
-            basis = torch.stack(view_basis(list(d.unbind(1)), self.cfg.sh_degree), 1)    # [m, K]
-            return sigma, torch.sigmoid((raw * basis[:, None, :]).sum(-1))
-        return sigma, torch.sigmoid(raw[..., 0])
+        return sigma, harmonic_rgb(self.raw_color(corners), d, self.cfg.sh_degree)
 
     def regularizer(self, seed: int):
         cfg = self.cfg
