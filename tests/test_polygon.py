@@ -57,3 +57,13 @@ def test_prism_walls_face_outward_and_caps_cover_the_outline():
     top = n[:, 2] > 1e-9
     assert 0.5 * n[top, 2].sum() == pytest.approx(poly.signed_area())
     assert (c >= 0).all() and (c <= 1).all()
+
+
+def test_wall_hits_give_arc_length_and_outward_normal():
+    square = Polygon.from_points(UNIT)                       # perimeter 4, counter-clockwise from (0, 0)
+    o = np.array([[0.5, -1.0], [2.0, 0.25], [-1.0, 2.0]])
+    d = np.array([[0.0, 1.0], [-1.0, 0.0], [1.0, 0.0]])
+    dist, arc, normal = square.wall_hits(o, d)
+    np.testing.assert_allclose(dist, [1.0, 1.0, np.inf])    # the bottom wall, the right wall, a miss
+    np.testing.assert_allclose(arc, [0.5 / 4, (1 + 0.25) / 4, 0.0])
+    np.testing.assert_allclose(normal, [[0, -1], [1, 0], [0, 0]], atol=1e-12)

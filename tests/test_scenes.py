@@ -73,6 +73,16 @@ def test_glossy_materials_add_highlights(base, dim):
         assert np.abs(rgb - diffuse)[alpha > 0.5].mean() > 0.02, material
 
 
+def test_roughness_sets_the_highlight_width():
+    """GGX's peak grows as 1 / roughness^2: a sharp highlight outshines a broad one; the default is 0.12."""
+    cams = views(2, n=12, res=100)
+    sharp, _ = render(get_scene("bunny_glossy_r0.05"), cams)
+    broad, _ = render(get_scene("bunny", material="roughplastic", roughness=0.5), cams)
+    assert sharp.max() > 1.5 * broad.max()
+    np.testing.assert_array_equal(render(get_scene("bunny_glossy"), cams)[0],
+                                  render(get_scene("bunny_glossy_r0.12"), cams)[0])
+
+
 def test_plastic_needs_and_shows_the_sun():
     cams = views(2, n=12, res=100)
     diffuse, _ = render(get_scene("bunny", env=True), cams, spp=32)
@@ -163,6 +173,21 @@ def test_variant_names_and_refused_looks():
             get_scene(*args, **words)
 
 
+def test_roughness_names_and_refusals():
+    info = get_scene("vase_roughconductor_r0.1_env")
+    assert (info.name, info.material, info.roughness, info.lighting) == (
+        "vase_roughconductor_r0.1_env", "roughconductor", 0.1, "env")
+    assert get_scene("bunny_glossy", roughness=0.3).name == "bunny_roughplastic_r0.3"
+    assert get_scene("bunny_glossy").roughness is None                 # the material's default
+    for args, words in [(("bunny",), dict(roughness=0.3)),               # diffuse has no roughness
+                        (("bunny_plastic_r0.3_env",), {}),                # nor has smooth plastic
+                        (("bunny_glossy_r0",), {}), (("bunny_glossy_r1.5",), {}), (("bunny_glossy_rnan",), {}),
+                        (("bunny_glossy_rough",), {}),                    # not a number: an unknown scene
+                        (("bunny_glossy_r0.3",), dict(roughness=0.2))]:   # two roughnesses
+        with pytest.raises(DataError):
+            get_scene(*args, **words)
+
+
 def test_dataset_command_records_the_look(tmp_path):
     from mitnerf.cli import main
     from mitnerf.data.formats import load_dataset
@@ -175,6 +200,13 @@ def test_dataset_command_records_the_look(tmp_path):
                  "--views", "2", "--val", "1", "--test", "1"]) == 0
     meta = load_dataset(tmp_path / "s").meta
     assert (meta["lighting"], meta["render"]["integrator"]) == ("env", "path")
+    assert main(["dataset", "--scene", "square_glossy", "--roughness", "0.3", "--out", str(tmp_path / "r"),
+                 "--views", "2", "--val", "1", "--test", "1", "--resolution", "16"]) == 0
+    meta = load_dataset(tmp_path / "r").meta
+    assert (meta["scene"], meta["roughness"]) == ("square_roughplastic_r0.3", 0.3)
+    for bad in (["--scene", "square", "--roughness", "0.3"], ["--scene", "square_glossy", "--roughness", "0"]):
+        assert main(["dataset", *bad, "--out", str(tmp_path / "y"), "--views", "2"]) == 2
+        assert not (tmp_path / "y").exists()
     assert main(["dataset", "--scene", "square", "--env", "--integrator", "all_lights", "--out",
                  str(tmp_path / "x"), "--views", "2"]) == 2
     assert not (tmp_path / "x").exists()

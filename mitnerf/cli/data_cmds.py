@@ -40,6 +40,8 @@ def register(sub) -> None:
                    "(default: converged, 64 with all_lights, 1024 with path; fewer gives a noisy ground truth)")
     p.add_argument("--material", choices=list(MATERIALS), help="surface: diffuse (default), plastic (needs --env), "
                    "roughplastic, roughconductor, or textured (a barcode along a 2D outline)")
+    p.add_argument("--roughness", type=number(False, 0, 1, True), help="GGX roughness of roughplastic (default "
+                   "0.12) or roughconductor (0.3): smaller gives sharper highlights")
     p.add_argument("--env", action="store_true", help="light the scene by a sky with a sun instead of point lights")
     p.add_argument("--integrator", choices=["all_lights", "path"], help="all_lights: noise-free sum over point "
                    "lights (default); path: Mitsuba's path tracer (default with --env)")
@@ -57,7 +59,8 @@ def register(sub) -> None:
 
 
 def run_dataset(args) -> int:
-    scene = get_scene(args.scene, polygon=args.polygon, kind=args.kind, material=args.material, env=args.env)
+    scene = get_scene(args.scene, polygon=args.polygon, kind=args.kind, material=args.material, env=args.env,
+                      roughness=args.roughness)
     integrator = args.integrator or ("path" if scene.lighting == "env" else "all_lights")
     spp = args.spp or (1024 if integrator == "path" else 64)
     dim = 2 if scene.kind == "2d" else 3

@@ -4,7 +4,10 @@ A scene's *look* is a material and a lighting. The default (``diffuse`` under th
 file unchanged; any other look is built with ``mitsuba.load_dict`` from the same mesh, albedo and lights.
 ``textured`` paints a barcode along a 2D outline; ``env`` is a procedural sky with a sun (:func:`sky_image`, needs
 the ``path`` integrator): 40 degrees high for 3D scenes, on the horizon (the cameras' plane) for 2D ones.
-Named variants: ``<scene>[_<material>][_env]``, ``glossy`` meaning ``roughplastic`` (``bunny_glossy``).
+Named variants: ``<scene>[_<material>[_r<roughness>]][_env]``, ``glossy`` meaning ``roughplastic``
+(``bunny_glossy``, ``bunny_glossy_r0.3``, ``vase_roughconductor_r0.1_env``). The rough materials' GGX roughness
+(Mitsuba's ``alpha``) defaults to :data:`ROUGHNESS`; how far a field's PSNR falls as highlights sharpen is measured
+by ``benchmarks/glossy_sweep.py``.
 """
 
 from __future__ import annotations
@@ -20,25 +23,39 @@ from .gt_render import PATH_INTEGRATOR
 MATERIALS = ("diffuse", "plastic", "roughplastic", "roughconductor", "textured")
 LIGHTINGS = ("points", "env")
 ALIASES = {"glossy": "roughplastic"}
+ROUGHNESS = {"roughplastic": 0.12, "roughconductor": 0.3}
+"""GGX roughness (``alpha``) of each rough material when none is chosen."""
 SKY_VERSION = "1"      # bump when sky_image changes
 SUN_ELEVATION = {"3d": 40.0, "2d": 0.0}
 SUN_AZIMUTH = -40.0    # degrees from +x: the side of the 3D key light
 
 
-def split_variant(name: str) -> tuple[str, str | None, bool]:
-    """``bunny_glossy_env`` -> ``("bunny", "roughplastic", True)``; no suffix: ``(name, None, False)``."""
+def split_variant(name: str) -> tuple[str, str | None, float | None, bool]:
+    """``bunny_glossy_r0.3_env`` -> ``("bunny", "roughplastic", 0.3, True)``; no suffix: ``(name, None, None, False)``.
+    A roughness that is not a number, or one without a material, is left in the base name (an unknown scene)."""
     base, env = (name[:-4], True) if name.endswith("_env") else (name, False)
+    roughness = None
+    head, sep, tail = base.rpartition("_r")
+    if sep and head and any(head.endswith("_" + m) for m in (*MATERIALS, *ALIASES)):
+        try:
+            roughness = float(tail)
+            base = head
+        except ValueError:
+            pass
     for m in (*MATERIALS, *ALIASES):
         if base.endswith("_" + m):
-            return base[:-len(m) - 1], ALIASES.get(m, m), env
-    return base, None, env
+            return base[:-len(m) - 1], ALIASES.get(m, m), roughness, env
+    return base, None, None, env
 
 
-def variant_name(base: str, material: str, lighting: str) -> str:
-    return base + ("" if material == "diffuse" else f"_{material}") + ("_env" if lighting == "env" else "")
+def variant_name(base: str, material: str, lighting: str, roughness: float | None = None) -> str:
+    rough = "" if roughness is None else f"_r{roughness:g}"
+    return (base + ("" if material == "diffuse" else f"_{material}{rough}")
+            + ("_env" if lighting == "env" else ""))
 
 
-def check_look(name: str, kind: str, material: str, lighting: str, has_mesh: bool = True) -> None:
+def check_look(name: str, kind: str, material: str, lighting: str, has_mesh: bool = True,
+               roughness: float | None = None) -> None:
     """Refuse looks that cannot render sensibly, with the fix."""
     if (material, lighting) != ("diffuse", "points") and not has_mesh:
         raise DataError(f"{name}: materials and --env apply to mitnerf's scenes; set the BSDF and "
@@ -50,19 +67,27 @@ def check_look(name: str, kind: str, material: str, lighting: str, has_mesh: boo
     if material == "textured" and kind != "2d":
         raise DataError(f"{name} is a 3D object and carries its own texture; the textured material paints "
                         "a 1D texture along a 2D outline: drop --material textured or pick a 2D scene")
+    if roughness is not None and material not in ROUGHNESS:
+        raise DataError(f"{name}: a roughness applies to {' and '.join(ROUGHNESS)} only; drop --roughness "
+                        f"or choose one of those materials")
+    if roughness is not None and not 0.0 < roughness <= 1.0:
+        raise DataError(f"{name}: roughness {roughness:g} is outside (0, 1]; 0.05 is nearly a mirror, "
+                        "1 nearly diffuse")
     if material == "plastic" and lighting == "points":
         raise DataError(f"{name}: smooth plastic mirrors point lights into single directions, so it would render "
                         "as a dimmed diffuse scene; add --env (suffix _env) or use --material roughplastic")
 
 
-def bsdf_dict(material: str, albedo, two_sided: bool) -> dict:
-    """Mitsuba BSDF of ``material`` whose colour is ``albedo`` (a texture dict or object)."""
+def bsdf_dict(material: str, albedo, two_sided: bool, roughness: float | None = None) -> dict:
+    """Mitsuba BSDF of ``material`` whose colour is ``albedo`` (a texture dict or object); ``roughness``: the GGX
+    alpha of a rough material (None: :data:`ROUGHNESS`)."""
+    alpha = lambda m: ROUGHNESS[m] if roughness is None else float(roughness)
     bsdfs = {"diffuse": {"type": "diffuse", "reflectance": albedo},
              "plastic": {"type": "plastic", "diffuse_reflectance": albedo, "int_ior": 1.5},
              "roughplastic": {"type": "roughplastic", "diffuse_reflectance": albedo, "int_ior": 1.5,
-                              "distribution": "ggx", "alpha": 0.12},
+                              "distribution": "ggx", "alpha": alpha("roughplastic")},
              "roughconductor": {"type": "roughconductor", "specular_reflectance": albedo,   # a tinted metal
-                                "distribution": "ggx", "alpha": 0.3}}
+                                "distribution": "ggx", "alpha": alpha("roughconductor")}}
     bsdfs["textured"] = bsdfs["diffuse"]          # check_look has refused other materials
     return {"type": "twosided", "bsdf": bsdfs[material]} if two_sided else bsdfs[material]
 
@@ -129,14 +154,15 @@ def styled_scene(info, point_lights) -> "object":
     material and lighting; ``point_lights``: the emitters of its XML scene."""
     import mitsuba as mi
 
-    check_look(info.name, info.kind, info.material, info.lighting, info.mesh is not None)
+    check_look(info.name, info.kind, info.material, info.lighting, info.mesh is not None, info.roughness)
     if info.texture is not None:                            # the object's colour: its image texture (UVs) ...
         albedo = {"type": "bitmap", "filename": str(info.texture), "filter_type": "bilinear", "wrap_mode": "repeat"}
     elif info.material in ("plastic", "roughplastic"):      # ... or its vertex colours
         albedo = vertex_color_texture()
     else:
         albedo = {"type": "mesh_attribute", "name": "vertex_color"}
-    shape = {"type": "ply", "filename": str(info.mesh), "bsdf": bsdf_dict(info.material, albedo, info.kind == "3d")}
+    shape = {"type": "ply", "filename": str(info.mesh), "bsdf": bsdf_dict(info.material, albedo, info.kind == "3d",
+                                                                               info.roughness)}
     if info.kind == "2d":
         shape["face_normals"] = True
     if info.lighting == "env":

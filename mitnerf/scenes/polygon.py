@@ -172,6 +172,12 @@ class Polygon:
     def intersect(self, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Distance ``[m]`` along rays ``origins, dirs [m, 2]`` to the first wall, ``inf`` on a miss:
         analytic, the reference the rendered depth is tested against."""
+        return self.wall_hits(origins, dirs)[0]
+
+    def wall_hits(self, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Where rays ``origins, dirs [m, 2]`` first meet a wall: the distance ``[m]`` (``inf`` on a miss), the arc
+        length there as a fraction of the perimeter from the first point ``[m]`` and the wall's outward unit
+        normal ``[m, 2]`` (both 0 on a miss)."""
         a, b = self.edges
         e = b - a                                        # [n, 2]
         o, d = origins[:, None, :], dirs[:, None, :]     # [m, 1, 2]
@@ -181,7 +187,15 @@ class Polygon:
             t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / denom
             u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
         ok = (np.abs(denom) > 1e-12) & (t > 1e-9) & (u >= 0) & (u <= 1)
-        return np.where(ok, t, np.inf).min(axis=1)
+        t = np.where(ok, t, np.inf)
+        k = t.argmin(axis=1)                             # [m] the wall met first
+        rows = np.arange(len(k))
+        dist, hit = t[rows, k], ok[rows, k]
+        length = np.linalg.norm(e, axis=1)
+        start = np.concatenate([[0.0], np.cumsum(length)[:-1]])
+        arc = np.where(hit, (start[k] + u[rows, k] * length[k]) / length.sum(), 0.0)
+        normal = np.stack([e[:, 1], -e[:, 0]], 1) / length[:, None]        # outward: the ring is counter-clockwise
+        return dist, arc, np.where(hit[:, None], normal[k], 0.0)
 
     # ----------------------------------------------------------------- the prism
     def resampled(self, max_len: float) -> tuple[np.ndarray, np.ndarray]:

@@ -54,6 +54,8 @@ class SceneInfo:
     """``diffuse``, ``plastic``, ``roughplastic``, ``roughconductor`` or ``textured`` (2D)."""
     lighting: str = "points"
     """``points`` (the XML's point lights) or ``env`` (a sky with a sun: render with ``path``)."""
+    roughness: float | None = None
+    """GGX roughness of a rough material; None: the material's default (:data:`~mitnerf.scenes.looks.ROUGHNESS`)."""
 
     def load(self, **overrides):
         """Load into the current Mitsuba variant (``overrides``: more ``$variables``); errors name the file and fix."""
@@ -98,17 +100,18 @@ def prism_assets(polygon: Polygon, textured: bool = False) -> Path:
     return cache_entry(f"meshes/{slug}{kind}-{digest(ASSET_VERSION, polygon.points.tobytes())}", build)
 
 
-def with_look(info: SceneInfo, material: str = "diffuse", lighting: str = "points") -> SceneInfo:
-    """``info`` in another look, renamed ``<name>[_<material>][_env]``."""
-    check_look(info.name, info.kind, material, lighting, info.mesh is not None)
+def with_look(info: SceneInfo, material: str = "diffuse", lighting: str = "points",
+              roughness: float | None = None) -> SceneInfo:
+    """``info`` in another look, renamed ``<name>[_<material>[_r<roughness>]][_env]``."""
+    check_look(info.name, info.kind, material, lighting, info.mesh is not None, roughness)
     if (material, lighting) == ("diffuse", "points"):
         return info
     mesh, texture = info.mesh, info.texture
     if material == "textured":
         folder = prism_assets(info.polygon, textured=True)
         mesh, texture = folder / "prism_uv.ply", folder / "stripes.exr"
-    return dataclasses.replace(info, name=variant_name(info.name, material, lighting), mesh=mesh,
-                               texture=texture, material=material, lighting=lighting)
+    return dataclasses.replace(info, name=variant_name(info.name, material, lighting, roughness), mesh=mesh,
+                               texture=texture, material=material, lighting=lighting, roughness=roughness)
 
 
 def scene_2d(polygon: Polygon, xml: Path | None = None) -> SceneInfo:
@@ -131,36 +134,40 @@ def object_3d(name: str) -> SceneInfo:
 
 
 def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None = None,
-              material: str | None = None, env: bool = False) -> SceneInfo:
+              material: str | None = None, env: bool = False, roughness: float | None = None) -> SceneInfo:
     """Resolve a scene: a registry name, a path to an XML file, or a user polygon.
 
     ``polygon`` may be a :class:`Polygon`, a list of points (a closed ring) or a path to a JSON
     file; it takes precedence over ``scene``. A registry name may carry a look (``bunny_glossy``,
-    ``vase_plastic_env``); ``material`` and ``env`` choose one too."""
+    ``vase_plastic_env``, ``bunny_glossy_r0.3``); ``material``, ``env`` and ``roughness`` choose one too."""
     lighting = "env" if env else "points"
     if polygon is not None:
         if not isinstance(polygon, Polygon):
             polygon = (Polygon.from_json(polygon) if isinstance(polygon, (str, Path))
                        else Polygon.from_points(polygon))
-        return with_look(scene_2d(polygon), material or "diffuse", lighting)
+        return with_look(scene_2d(polygon), material or "diffuse", lighting, roughness)
     if scene is None:
         raise DataError(f"no scene given; pass one of {', '.join(SCENE_NAMES)} or a polygon")
     name = str(scene)
-    base, named_material, named_env = split_variant(name)
+    base, named_material, named_roughness, named_env = split_variant(name)
     if base in SCENE_NAMES:
         if named_material and material and named_material != material:
             raise DataError(f"scene {name} already has material {named_material}; drop --material {material} "
                             f"or pass --scene {base}")
+        if named_roughness is not None and roughness is not None and named_roughness != roughness:
+            raise DataError(f"scene {name} already has roughness {named_roughness:g}; drop --roughness "
+                            f"{roughness:g} or the name's _r suffix")
         info = (scene_2d(Polygon.from_json(SCENES_XML / "polygons" / f"{base}.json"), SCENES_XML / f"{base}.xml")
                 if base in SCENES_2D else object_3d(base))
-        return with_look(info, material or named_material or "diffuse", "env" if named_env else lighting)
+        return with_look(info, material or named_material or "diffuse", "env" if named_env else lighting,
+                         named_roughness if roughness is None else roughness)
     if name.endswith(".xml"):
         path = Path(name)
         if not path.is_file():
             raise DataError(f"scene file {path} does not exist; check the path")
         info = SceneInfo(path.stem, "2d" if kind == "2d" else "3d", path.resolve())
         info.load()  # fail early on malformed XML
-        return with_look(info, material or "diffuse", lighting)
+        return with_look(info, material or "diffuse", lighting, roughness)
     raise DataError(f"unknown scene {name!r}; choose one of {', '.join(SCENE_NAMES)} (optionally with a look, "
                     "e.g. bunny_glossy or vase_roughconductor_env), give a path to a Mitsuba XML file, "
                     "or pass --polygon FILE")

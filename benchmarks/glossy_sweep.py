@@ -1,0 +1,155 @@
+"""How sharp a highlight the fields learn: the default recipes on scenes rendered at several roughnesses.
+
+The rough materials' highlight narrows as their GGX roughness (``--roughness``, Mitsuba's ``alpha``) falls:
+``bunny_glossy`` is 0.12. Each roughness is a dataset of the fit table's protocol (2D: the bunny, 50 noisy views of
+100 px; 3D: the vase, 25 views of 100 x 100), fitted by ``grid`` and ``hashlinear``'s recipes, each row's kernels
+compiled before its timed run (as in ``fit_table.py``). Every row: test PSNR, SSIM, IoU (2D) or Chamfer distance (3D).
+
+Beside the 2D rows, a reference that has the *exact* geometry: every training pixel's centre ray is intersected with
+the true outline, and the colour there is fitted by least squares as harmonics of the view angle (against the wall's
+normal) up to a degree, per point of the outline (bins of arc length, linear between them, kept smooth along it). Its
+degree and smoothness are chosen by 5-fold cross-validation over the training views (4 validation views choose too
+noisily); it is scored on the test views with the pixels whose centre ray misses counted exact. It measures how far appearance alone carries from the training views to the test views:
+where it falls short of a goal, better geometry will not reach it.
+
+With ``--long R`` the 2D grid recipe is also trained ``--long-budget`` seconds at roughness R (the best validation
+checkpoint is kept): its test PSNR must not fall below its 10 s figure.
+Records ``glossy/2d``, ``glossy/3d`` and ``glossy/longer`` in ``results.json``.
+
+    python benchmarks/glossy_sweep.py [--roughness 0.05 0.12 0.2 0.3 0.5] [--roughness-3d 0.12 0.2 0.3]
+                                      [--long 0.3] [--long-budget 300] [--no-3d]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
+
+from fit_table import dataset, row   # (fit_table imports _common, which chooses the Mitsuba variant)
+from mitnerf.results import record_result
+from mitnerf.scenes.polygon import Polygon
+from mitnerf.train.metrics import psnr
+from mitnerf.train.recipes import recipe_for
+
+FAMILIES = ("grid", "hashlinear")
+DEGREES = (0, 1, 2, 4, 8, 12, 16)
+SMOOTHNESS = (0.3, 1.0, 3.0, 10.0)
+FOLDS = 5
+BINS = 256
+
+
+def outline_hits(ds, split: str, polygon: Polygon) -> dict:
+    """The pixel-centre rays of ``split`` on the true outline: hit mask ``[P]``, arc fraction, view angle and view
+    index of the hits ``[h]``, target colours ``[P, 3]`` (display space over the background)."""
+    o, d = ds[split].cameras.rays()
+    view = np.repeat(np.arange(o.shape[0]), o.shape[1] * o.shape[2])
+    o, d = o.reshape(-1, 2), d.reshape(-1, 2)
+    dist, arc, n = polygon.wall_hits(o, d)
+    hit = np.isfinite(dist)
+    v = -d[hit]                                           # towards the camera
+    n = n[hit]
+    angle = np.arctan2(n[:, 0] * v[:, 1] - n[:, 1] * v[:, 0], (n * v).sum(1))
+    return {"hit": hit, "arc": arc[hit], "angle": angle, "view": view[hit],
+            "target": ds[split].target(ds.background).reshape(-1, 3)}
+
+
+def design(h: dict, degree: int) -> sp.csr_matrix:
+    """``[h, BINS * (2 degree + 1)]``: hat functions of the arc fraction (periodic) times the view-angle harmonics."""
+    u = h["arc"] * BINS
+    i0 = np.floor(u).astype(int) % BINS
+    w = u - np.floor(u)
+    a = h["angle"]
+    harm = np.stack([np.ones_like(a), *[f(k * a) for k in range(1, degree + 1) for f in (np.cos, np.sin)]], 1)
+    nh = harm.shape[1]
+    cols = np.concatenate([i0[:, None] * nh + np.arange(nh), ((i0 + 1) % BINS)[:, None] * nh + np.arange(nh)], 1)
+    vals = np.concatenate([(1 - w)[:, None] * harm, w[:, None] * harm], 1)
+    rows = np.repeat(np.arange(len(a)), 2 * nh)
+    return sp.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(len(a), BINS * nh))
+
+
+def predict(h: dict, coef: np.ndarray, degree: int) -> np.ndarray:
+    """The split's images ``[P, 3]``: the fit where the centre ray hits, the target where it misses."""
+    out = h["target"].copy()
+    out[h["hit"]] = design(h, degree) @ coef
+    return out
+
+
+def solve(X: sp.csr_matrix, y: np.ndarray, degree: int, lam: float) -> np.ndarray:
+    """Least squares ``X coef = y [h, 3]`` with squared differences of neighbouring bins weighted by ``lam**2``."""
+    step = sp.eye(BINS) - sp.eye(BINS, k=1) - sp.eye(BINS, k=1 - BINS)            # neighbouring bins, periodic
+    R = sp.kron(step.T @ step, sp.eye(2 * degree + 1))
+    return spsolve((X.T @ X + lam ** 2 * R + 1e-6 * sp.eye(X.shape[1])).tocsc(), X.T @ y)
+
+
+def outline_harmonics(ds) -> dict:
+    """Fit and score the exact-geometry appearance reference (module docstring)."""
+    polygon = Polygon.from_points(ds.meta["polygon"])
+    train, test = outline_hits(ds, "train", polygon), outline_hits(ds, "test", polygon)
+    y = train["target"][train["hit"]]
+    fold = train["view"] % FOLDS
+    scores = {}
+    for degree in DEGREES:
+        X = design(train, degree)
+        for lam in SMOOTHNESS:
+            err = sum(float(np.sum((np.clip(X[fold == k] @ solve(X[fold != k], y[fold != k], degree, lam), 0, 1)
+                                    - y[fold == k]) ** 2)) for k in range(FOLDS))
+            scores[degree, lam] = err
+    degree, lam = min(scores, key=scores.get)
+    coef = solve(design(train, degree), y, degree, lam)
+    return {"psnr": psnr(predict(test, coef, degree), test["target"]), "degree": degree, "smoothness": lam}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--roughness", type=float, nargs="+", default=[0.05, 0.12, 0.2, 0.3, 0.5])
+    p.add_argument("--roughness-3d", type=float, nargs="+", default=[0.12, 0.2, 0.3])
+    p.add_argument("--long", type=float, default=0.3, help="roughness of the long 2D run (0: none)")
+    p.add_argument("--long-budget", type=float, default=300.0)
+    p.add_argument("--no-3d", action="store_true")
+    args = p.parse_args(argv)
+    command = "python benchmarks/glossy_sweep.py" + ("" if argv is None else " " + " ".join(argv))
+
+    results2d = {}
+    for r in args.roughness:
+        ds = dataset(f"bunny_glossy_r{r:g}", 2)
+        ref = outline_harmonics(ds)
+        rows = {fam: row(ds, recipe_for(fam, 2), fam) for fam in FAMILIES}
+        results2d[f"{r:g}"] = {"outline_harmonics": ref, **rows}
+        print(f"roughness {r:g}: " + ", ".join(f"{f} {x['psnr']:.2f} dB IoU {x['geometry']:.3f}" for f, x in
+                                                 rows.items())
+              + f"; outline harmonics {ref['psnr']:.2f} dB (degree {ref['degree']})", flush=True)
+    record_result("glossy/2d", results2d, "2D bunny, 10 s, test PSNR by roughness: " + "; ".join(
+        f"{r} grid {v['grid']['psnr']:.2f}, hashlinear {v['hashlinear']['psnr']:.2f}, exact-outline harmonics "
+        f"{v['outline_harmonics']['psnr']:.2f} dB" for r, v in results2d.items()), command)
+
+    if args.long > 0:
+        ds = dataset(f"bunny_glossy_r{args.long:g}", 2)
+        recipe = recipe_for("grid", 2)
+        short = row(ds, recipe, "grid")
+        long = row(ds, recipe.override(time_budget=args.long_budget, iters=10 ** 6, progress=False), "grid")
+        change = long["psnr"] - short["psnr"]
+        print(f"roughness {args.long:g}: 10 s {short['psnr']:.2f} dB, {args.long_budget:g} s {long['psnr']:.2f} dB "
+              f"({change:+.2f})", flush=True)
+        record_result("glossy/longer", {"roughness": args.long, "short": short, "long": long},
+                      f"2D bunny at roughness {args.long:g}, grid recipe: test PSNR 10 s {short['psnr']:.2f} dB, "
+                      f"{args.long_budget:g} s {long['psnr']:.2f} dB ({change:+.2f} dB)", command)
+
+    if not args.no_3d:
+        results3d = {}
+        for r in args.roughness_3d:
+            ds = dataset(f"vase_glossy_r{r:g}", 3)
+            results3d[f"{r:g}"] = {fam: row(ds, recipe_for(fam, 3), fam) for fam in FAMILIES}
+            print(f"roughness {r:g}: " + ", ".join(f"{f} {x['psnr']:.2f} dB Chamfer {x['geometry']:.4f}"
+                                                     for f, x in results3d[f"{r:g}"].items()), flush=True)
+        record_result("glossy/3d", results3d, "3D vase, 60 s, test PSNR / Chamfer by roughness: " + "; ".join(
+            f"{r} " + ", ".join(f"{f} {x['psnr']:.2f} dB / {x['geometry']:.4f}" for f, x in v.items())
+            for r, v in results3d.items()), command)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
