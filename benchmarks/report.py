@@ -9,7 +9,8 @@ produced it). This script renders it:
   (the entries whose key is listed in ``README_KEYS``);
 * ``REPRODUCTION.md`` (:mod:`mitnerf.experiments.reproduction`: every claim of the two source
   reports beside our figure, from the ``experiment/...`` entries) and its figure
-  ``docs/reproduction.png``.
+  ``docs/reproduction.png``;
+* ``docs/glossy.png``: test PSNR against roughness (``glossy/2d``, ``glossy/3d``), the goals marked.
 
     python benchmarks/report.py
 """
@@ -47,6 +48,33 @@ def rows_table(key: str, values: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def glossy_figure(results: dict, path: Path) -> Path | None:
+    """Test PSNR against the material's roughness, 2D and 3D side by side; None when nothing is recorded."""
+    from mitnerf.viz.panels import pyplot, save
+
+    panels = [(k, goal) for k, goal in (("glossy/2d", 33.0), ("glossy/3d", 30.0)) if k in results]
+    if not panels:
+        return None
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 3.6), squeeze=False)
+    for ax, (key, goal) in zip(axes[0], panels):
+        values = results[key]["values"]
+        alphas = sorted(values, key=float)
+        for name, style in (("grid", "o-"), ("hashlinear", "s-"), ("outline_harmonics", "k^--")):
+            if all(name in values[a] for a in alphas):
+                label = "appearance on the exact outline" if name == "outline_harmonics" else name
+                ax.plot([float(a) for a in alphas], [values[a][name]["psnr"] for a in alphas], style, label=label)
+        ax.axhline(goal, color="r", lw=0.8, ls=":", label=f"goal {goal:g} dB")
+        ax.set(title=f"{key}: {'bunny, 10 s' if key.endswith('2d') else 'vase, 60 s'}", xlabel="roughness (GGX alpha)",
+               ylabel="test PSNR [dB]", xscale="log")
+        ax.set_xticks([float(a) for a in alphas], alphas, minor=False)
+        ax.set_xticks([], minor=True)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    save(fig, path)
+    return path
+
+
 def main() -> int:
     results = load_results()
     if not results:
@@ -71,6 +99,7 @@ def main() -> int:
 
     (ROOT / "docs").mkdir(exist_ok=True)
     fig = figure(results, ROOT / "docs" / "reproduction.png")
+    glossy_figure(results, ROOT / "docs" / "glossy.png")
     (ROOT / "REPRODUCTION.md").write_text(document(results, "docs/reproduction.png" if fig else None,
                                                    "python benchmarks/report.py"))
     print(f"wrote RESULTS.md ({len(results)} figures), REPRODUCTION.md and the README's table ({len(chosen)} rows)")
