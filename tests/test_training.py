@@ -13,7 +13,7 @@ from mitnerf.rng import step_seed
 from mitnerf.train.engines import make_backend
 from mitnerf.train.checkpoint import load_checkpoint, save_checkpoint
 from mitnerf.train.evaluate import classify
-from mitnerf.train.fit import fit, fit_and_evaluate
+from mitnerf.train.fit import fit, fit_and_evaluate, keeps_best
 from mitnerf.train.loop import LoopState, TrainingFailed
 
 
@@ -100,6 +100,23 @@ def test_the_last_good_weights_survive_a_nan(bunny_small):
     kept = info.value.run.backend.get_weights()
     for k in good:
         np.testing.assert_array_equal(kept[k], good[k])
+
+
+def test_the_best_checkpoint_must_beat_the_last_by_the_margin(bunny_small):
+    import copy
+
+    assert not keeps_best(40.5, 40.3, 0.3)          # 0.2 dB: within the noise, the last weights stay
+    assert keeps_best(40.7, 40.3, 0.3)              # 0.4 dB: the best checkpoint is kept
+    assert not keeps_best(40.3, 40.3, 0.0)          # a tie goes to the last weights
+    run = fit(bunny_small, small(iters=20, val_every=0), "drjit")
+    start = run.backend.get_weights()               # a "best" checkpoint at 90 dB: far ahead of the last
+    for margin, kept in ((0.3, True), (100.0, False)):
+        again = fit(bunny_small, small(iters=40, val_every=0, keep_best_margin=margin), "drjit", resume={
+            "weights": start, "optimizer": {}, "state": copy.deepcopy(run.state), "best": {"step": 20, "val_psnr": 90.0},
+            "best_weights": start})
+        assert any("kept the checkpoint of step 20" in n for n in again.notes) == kept
+        end = again.backend.get_weights()
+        assert all(np.array_equal(end[k], start[k]) for k in start) == kept
 
 
 @pytest.mark.parametrize("val_every", [60, 0], ids=["found by the loop's validation", "found by the last one"])

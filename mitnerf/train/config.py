@@ -91,7 +91,13 @@ class TrainConfig:
     val_views: int = 4
     """Validation views rendered each time."""
     keep_best: bool = True
-    """End with the weights of the best validation, not the last step (and say so)."""
+    """End with the weights of the best validation, not the last step (and say so), when it beats the last
+    validation by ``keep_best_margin``."""
+    keep_best_margin: float = 0.3
+    """dB of validation PSNR by which the best validation must beat the last for its weights to be kept. Late in a
+    run, validations on a few views swing by tenths of a dB with the batches' noise: within that, the last
+    weights (trained longest, at the smallest rate) win, so a long run does not end on a lucky earlier draw
+    (``benchmarks/fit_table.py``'s ``longer`` runs)."""
     seed: int = 0
     """Seed of the initial weights, the ray batches and the sample jitter."""
     threads: int = 2
@@ -139,5 +145,6 @@ class TrainConfig:
         check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
         check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
         check("val_views", self.val_views, 1, 10 ** 6, integer=True)
+        check("keep_best_margin", self.keep_best_margin, 0, 100)
         check("seed", self.seed, 0, 2 ** 32 - 1, integer=True, flag="--seed")
         check("threads", self.threads, 1, 1024, integer=True, flag="--threads")

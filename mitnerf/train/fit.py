@@ -1,6 +1,7 @@
 """Fitting a field to a dataset: ``fit(dataset, recipe, backend) -> Run``. Every ``val_every`` steps a few
 validation views give a PSNR, stop a *collapsed* field (:func:`~mitnerf.train.evaluate.classify`) and keep the
-best weights (the end weights with ``keep_best``, said in :attr:`Run.notes`). A NaN restores the last good
+best weights (the end weights with ``keep_best`` where they beat the last by ``keep_best_margin``, said in
+:attr:`Run.notes`). A NaN restores the last good
 validation's weights. :class:`TrainingFailed` and :class:`Interrupted` (Ctrl-C, SIGTERM) carry the :class:`Run`
 so it can be saved and resumed."""
 
@@ -111,11 +112,17 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
         raise
     last = run.state.history["val_psnr"][-1] if val is not None else None
     if cfg.keep_best and run.best and last is not None and run.best["step"] != run.state.step \
-            and run.best["val_psnr"] > last:
+            and keeps_best(run.best["val_psnr"], last, cfg.keep_best_margin):
         be.set_weights(run.snapshot)
         run.notes.append(f"kept the checkpoint of step {run.best['step']} (validation {run.best['val_psnr']:.2f} dB; "
                          f"the last step, {run.state.step}, had {last:.2f} dB)")
     return run
+
+
+def keeps_best(best: float, last: float, margin: float) -> bool:
+    """Whether a run ends with its best validation's weights (PSNR ``best``) rather than its last ones (``last``):
+    only when the best is more than ``margin`` dB ahead (:attr:`~mitnerf.train.config.TrainConfig.keep_best_margin`)."""
+    return best > last + margin
 
 
 def fit_and_evaluate(dataset: Dataset, recipe: Recipe, backend: str = "drjit", split: str = "test",
