@@ -17,7 +17,7 @@ checkpoint is kept): its test PSNR must not fall below its 10 s figure.
 Records ``glossy/2d``, ``glossy/3d`` and ``glossy/longer`` in ``results.json``.
 
     python benchmarks/glossy_sweep.py [--roughness 0.05 0.12 0.2 0.3 0.5] [--roughness-3d 0.12 0.2 0.3]
-                                      [--long 0.3] [--long-budget 300] [--no-3d]
+                                      [--long 0.3] [--long-budget 300] [--parts 2d long 3d]
 """
 
 from __future__ import annotations
@@ -107,14 +107,15 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--roughness", type=float, nargs="+", default=[0.05, 0.12, 0.2, 0.3, 0.5])
     p.add_argument("--roughness-3d", type=float, nargs="+", default=[0.12, 0.2, 0.3])
-    p.add_argument("--long", type=float, default=0.3, help="roughness of the long 2D run (0: none)")
+    p.add_argument("--long", type=float, default=0.3, help="roughness of the long 2D run")
     p.add_argument("--long-budget", type=float, default=300.0)
-    p.add_argument("--no-3d", action="store_true")
+    p.add_argument("--parts", nargs="+", choices=("2d", "long", "3d"), default=["2d", "long", "3d"],
+                   help="what to measure (each records its own entry)")
     args = p.parse_args(argv)
-    command = "python benchmarks/glossy_sweep.py" + ("" if argv is None else " " + " ".join(argv))
+    command = " ".join(["python benchmarks/glossy_sweep.py", *(sys.argv[1:] if argv is None else argv)])
 
     results2d = {}
-    for r in args.roughness:
+    for r in args.roughness if "2d" in args.parts else ():
         ds = dataset(f"bunny_glossy_r{r:g}", 2)
         ref = outline_harmonics(ds)
         rows = {fam: row(ds, recipe_for(fam, 2), fam) for fam in FAMILIES}
@@ -122,11 +123,12 @@ def main(argv=None) -> int:
         print(f"roughness {r:g}: " + ", ".join(f"{f} {x['psnr']:.2f} dB IoU {x['geometry']:.3f}" for f, x in
                                                  rows.items())
               + f"; outline harmonics {ref['psnr']:.2f} dB (degree {ref['degree']})", flush=True)
-    record_result("glossy/2d", results2d, "2D bunny, 10 s, test PSNR by roughness: " + "; ".join(
-        f"{r} grid {v['grid']['psnr']:.2f}, hashlinear {v['hashlinear']['psnr']:.2f}, exact-outline harmonics "
-        f"{v['outline_harmonics']['psnr']:.2f} dB" for r, v in results2d.items()), command)
+    if results2d:
+        record_result("glossy/2d", results2d, "2D bunny, 10 s, test PSNR by roughness: " + "; ".join(
+            f"{r} grid {v['grid']['psnr']:.2f}, hashlinear {v['hashlinear']['psnr']:.2f}, exact-outline harmonics "
+            f"{v['outline_harmonics']['psnr']:.2f} dB" for r, v in results2d.items()), command)
 
-    if args.long > 0:
+    if "long" in args.parts:
         ds = dataset(f"bunny_glossy_r{args.long:g}", 2)
         recipe = recipe_for("grid", 2)
         short = row(ds, recipe, "grid")
@@ -138,7 +140,7 @@ def main(argv=None) -> int:
                       f"2D bunny at roughness {args.long:g}, grid recipe: test PSNR 10 s {short['psnr']:.2f} dB, "
                       f"{args.long_budget:g} s {long['psnr']:.2f} dB ({change:+.2f} dB)", command)
 
-    if not args.no_3d:
+    if "3d" in args.parts:
         results3d = {}
         for r in args.roughness_3d:
             ds = dataset(f"vase_glossy_r{r:g}", 3)
