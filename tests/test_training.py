@@ -112,8 +112,8 @@ def test_the_best_checkpoint_must_beat_the_last_by_the_margin(bunny_small):
     start = run.backend.get_weights()               # a "best" checkpoint at 90 dB: far ahead of the last
     for margin, kept in ((0.3, True), (100.0, False)):
         again = fit(bunny_small, small(iters=40, val_every=0, keep_best_margin=margin), "drjit", resume={
-            "weights": start, "optimizer": {}, "state": copy.deepcopy(run.state), "best": {"step": 20, "val_psnr": 90.0},
-            "best_weights": start})
+            "weights": start, "optimizer": {}, "state": copy.deepcopy(run.state),
+            "best": {"step": 20, "val_psnr": 90.0}, "best_weights": start})
         assert any("kept the checkpoint of step 20" in n for n in again.notes) == kept
         end = again.backend.get_weights()
         assert all(np.array_equal(end[k], start[k]) for k in start) == kept

@@ -1,9 +1,8 @@
 """Fitting a field to a dataset: ``fit(dataset, recipe, backend) -> Run``. Every ``val_every`` steps a few
 validation views give a PSNR, stop a *collapsed* field (:func:`~mitnerf.train.evaluate.classify`) and keep the
 best weights (the end weights with ``keep_best`` where they beat the last by ``keep_best_margin``, said in
-:attr:`Run.notes`). A NaN restores the last good
-validation's weights. :class:`TrainingFailed` and :class:`Interrupted` (Ctrl-C, SIGTERM) carry the :class:`Run`
-so it can be saved and resumed."""
+:attr:`Run.notes`). A NaN restores the last good validation's weights. :class:`TrainingFailed` and
+:class:`Interrupted` (Ctrl-C, SIGTERM) carry the :class:`Run` so it can be saved and resumed."""
 
 from __future__ import annotations
 
