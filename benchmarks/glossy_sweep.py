@@ -13,9 +13,10 @@ noisily); it is scored on the test views with the pixels whose centre ray misses
 (the fields also learn what falls inside a pixel's footprint, and pass it where highlights are broad); it shows how
 much of a field's gap to a goal exact geometry alone would close.
 
-With ``--long R`` the 2D grid recipe is also trained ``--long-budget`` seconds at roughness R (the best validation
-checkpoint is kept): its test PSNR must not fall below its 10 s figure.
-Records ``glossy/2d``, ``glossy/3d`` and ``glossy/longer`` in ``results.json``.
+The ``long`` part trains the 2D grid recipe for 10 s and for ``--long-budget`` seconds at roughness ``--long`` (each
+keeping its best validation checkpoint where that is ahead by ``keep_best_margin``): the longer run's test PSNR must
+not fall below the shorter one's. Records ``glossy/2d``, ``glossy/3d`` and ``glossy/longer`` in ``results.json``
+(``--parts`` chooses which).
 
     python benchmarks/glossy_sweep.py [--roughness 0.05 0.12 0.2 0.3 0.5] [--roughness-3d 0.12 0.2 0.3]
                                       [--long 0.3] [--long-budget 300] [--parts 2d long 3d]
