@@ -69,6 +69,13 @@ def row(ds, recipe, label: str, extra_time: float = 0.0) -> dict:
             "params": rec.params, "seconds": rec.train_time + extra_time, "status": rec.status}
 
 
+def longer(ds, recipe, budget: float, long: float, short: dict | None = None) -> tuple[dict, dict]:
+    """The rows of ``recipe`` trained ``budget`` and ``long`` seconds (``short``: the first, already measured)."""
+    short = short or row(ds, recipe.override(time_budget=budget, progress=False), f"{recipe.name}, {budget:g} s")
+    long_row = row(ds, recipe.override(time_budget=long, iters=10 ** 6, progress=False), f"{recipe.name}, {long:g} s")
+    return short, long_row
+
+
 def show(scene: str, rows: list[dict], dim: int) -> None:
     geo = "IoU" if dim == 2 else "Chamfer"
     print(f"\n{scene}\n{'run':<54} {'PSNR':>6} {'SSIM':>6} {geo:>8} {'params':>9} {'s':>6}  status")
@@ -159,10 +166,7 @@ def main(argv=None) -> int:
                       + (f"; auto {auto['psnr']:.2f} dB, IoU {auto['geometry']:.3f} ({auto['recipe']})" if auto else ""),
                       command)
         if args.long and scene in args.long_scenes and (not args.redo or "longer" in args.redo):
-            base = recipe_for(None, 2)
-            short = row(ds, base.override(time_budget=args.budget, progress=False), f"{base.name}, {args.budget:g} s")
-            long = row(ds, base.override(time_budget=args.long, iters=10 ** 6, progress=False),
-                       f"{base.name}, {args.long:g} s")
+            short, long = longer(ds, recipe_for(None, 2), args.budget, args.long)
             print(f"  longer training: {short['psnr']:.2f} dB at {args.budget:g} s -> {long['psnr']:.2f} dB at "
                   f"{args.long:g} s", flush=True)
             longer[scene] = {"short": short["psnr"], "long": long["psnr"]}

@@ -10,7 +10,7 @@ from tqdm.auto import tqdm
 from .. import __version__
 from ..errors import ConfigError
 from ..scenes.gt_render import RenderSettings, exact_depth, render_color
-from ..scenes.looks import ROUGHNESS
+from ..scenes.looks import ROUGHNESS, roughness_of
 from ..scenes.registry import SceneInfo
 from .cameras import Cameras
 from .dataset import Dataset, Split, bounds_from_cameras
@@ -59,5 +59,5 @@ def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderS
     if (scene.material, scene.lighting) != ("diffuse", "points"):    # default datasets keep their bytes
         meta.update(material=scene.material, lighting=scene.lighting)
     if scene.material in ROUGHNESS:
-        meta["roughness"] = ROUGHNESS[scene.material] if scene.roughness is None else scene.roughness
+        meta["roughness"] = roughness_of(scene.material, scene.roughness)
     return Dataset(splits, near, far, meta)

@@ -83,6 +83,11 @@ class GridConfig(GridSettings):
         """This config at the end of its coarse-to-fine schedule (what its size is judged by)."""
         return dataclasses.replace(self, initial_resolution=self.resolution)
 
+    @property
+    def schedule_end(self) -> int:
+        """The step of its last coarse-to-fine change (0: none)."""
+        return max(self.upsample_at, default=0)
+
     def resolution_at(self, step: int) -> int:
         res = self.initial_resolution
         for _ in range(sum(step >= s for s in self.upsample_at)):     # one doubling per step passed

@@ -94,6 +94,11 @@ class HashLinearConfig(GridSettings):
         """This config with every level in use (what its size is judged by)."""
         return dataclasses.replace(self, initial_levels=len(self.resolutions))
 
+    @property
+    def schedule_end(self) -> int:
+        """The step of the last level joining (0: none)."""
+        return max(self.add_level_at, default=0)
+
 
 @dataclass(frozen=True)
 class Levels:

@@ -78,10 +78,17 @@ def check_look(name: str, kind: str, material: str, lighting: str, has_mesh: boo
                         "as a dimmed diffuse scene; add --env (suffix _env) or use --material roughplastic")
 
 
+def roughness_of(material: str, roughness: float | None = None) -> float | None:
+    """The GGX roughness ``material`` renders with: ``roughness``, else its default; None for a smooth one."""
+    if material not in ROUGHNESS:
+        return None
+    return ROUGHNESS[material] if roughness is None else float(roughness)
+
+
 def bsdf_dict(material: str, albedo, two_sided: bool, roughness: float | None = None) -> dict:
     """Mitsuba BSDF of ``material`` whose colour is ``albedo`` (a texture dict or object); ``roughness``: the GGX
     alpha of a rough material (None: :data:`ROUGHNESS`)."""
-    alpha = lambda m: ROUGHNESS[m] if roughness is None else float(roughness)
+    alpha = lambda m: roughness_of(m, roughness)
     bsdfs = {"diffuse": {"type": "diffuse", "reflectance": albedo},
              "plastic": {"type": "plastic", "diffuse_reflectance": albedo, "int_ior": 1.5},
              "roughplastic": {"type": "roughplastic", "diffuse_reflectance": albedo, "int_ior": 1.5,
