@@ -15,11 +15,18 @@ much of a field's gap to a goal exact geometry alone would close.
 
 The ``long`` part trains the 2D grid recipe for 10 s and for ``--long-budget`` seconds at roughness ``--long`` (each
 keeping its best validation checkpoint where that is ahead by ``keep_best_margin``): the longer run's test PSNR must
-not fall below the shorter one's. Records ``glossy/2d``, ``glossy/3d`` and ``glossy/longer`` in ``results.json``
-(``--parts`` chooses which).
+not fall below the shorter one's.
 
-    python benchmarks/glossy_sweep.py [--roughness 0.05 0.12 0.2 0.3 0.5] [--roughness-3d 0.12 0.2 0.3]
-                                      [--long 0.3] [--long-budget 300] [--parts 2d long 3d]
+The ``preset`` part says which roughness is like the renders of issue 14's report, by the one figure it gives for a
+recipe we can rerun: the first wave's grid preset (:data:`PRESET`: no view dependence, no losses, coarse to fine
+129 -> 513, learning rate 0.05) reached 27.8 dB on their first glossy dataset in 10 s. It trains that preset at
+each 2D roughness, and the diffuse bunny beside them (the report measured 33.2 dB there).
+
+Records ``glossy/2d``, ``glossy/3d``, ``glossy/longer`` and ``glossy/preset`` in ``results.json`` (``--parts``
+chooses which).
+
+    python benchmarks/glossy_sweep.py [--roughness 0.05 0.12 0.2 0.25 0.3 0.5] [--roughness-3d 0.12 0.2 0.3]
+                                      [--long 0.3] [--long-budget 300] [--parts 2d long 3d preset]
 """
 
 from __future__ import annotations
@@ -42,6 +49,10 @@ DEGREES = (0, 1, 2, 4, 8, 12, 16)
 SMOOTHNESS = (0.3, 1.0, 3.0, 10.0)
 FOLDS = 5
 BINS = 256
+PRESET = dict(resolution=513, initial_resolution=129, upsample_at=(150, 400), tv_weight=1e-4, view_dependent=False,
+              tv_color_weight=0.0, lr=0.05, lr_final=0.005, distortion_weight=0.0, opacity_weight=0.0,
+              free_space_weight=0.0, solid_weight=0.0, keep_best=False)
+"""The first wave's 2D grid recipe, as issue 14's report ran it, on top of today's ``grid-2d``."""
 
 
 def outline_hits(ds, split: str, polygon: Polygon) -> dict:
@@ -110,11 +121,12 @@ def outline_harmonics(ds) -> dict:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--roughness", type=float, nargs="+", default=[0.05, 0.12, 0.2, 0.3, 0.5])
+    p.add_argument("--roughness", type=float, nargs="+", default=[0.05, 0.12, 0.2, 0.25, 0.3, 0.5])
     p.add_argument("--roughness-3d", type=float, nargs="+", default=[0.12, 0.2, 0.3])
     p.add_argument("--long", type=float, default=0.3, help="roughness of the long 2D run")
     p.add_argument("--long-budget", type=float, default=300.0)
-    p.add_argument("--parts", nargs="+", choices=("2d", "long", "3d"), default=["2d", "long", "3d"],
+    p.add_argument("--parts", nargs="+", choices=("2d", "long", "3d", "preset"),
+                   default=["2d", "long", "3d", "preset"],
                    help="what to measure (each records its own entry)")
     args = p.parse_args(argv)
     command = " ".join(["python benchmarks/glossy_sweep.py", *(sys.argv[1:] if argv is None else argv)])
@@ -155,6 +167,16 @@ def main(argv=None) -> int:
         record_result("glossy/3d", results3d, "3D vase, 60 s, test PSNR / Chamfer by roughness: " + "; ".join(
             f"{r} " + ", ".join(f"{f} {x['psnr']:.2f} dB / {x['geometry']:.4f}" for f, x in v.items())
             for r, v in results3d.items()), command)
+
+    if "preset" in args.parts:
+        preset = {}
+        for scene in ["bunny", *(f"bunny_glossy_r{r:g}" for r in args.roughness)]:
+            x = row(dataset(scene, 2), recipe_for("grid", 2).override(**PRESET, progress=False), "first-wave preset")
+            preset[scene] = x
+            print(f"{scene}: first-wave preset {x['psnr']:.2f} dB", flush=True)
+        record_result("glossy/preset", preset, "2D, the first wave's grid preset, 10 s (issue 14's report: 27.8 dB on "
+                      "its glossy data, 33.2 on our bunny): " + "; ".join(f"{k} {v['psnr']:.2f}"
+                                                                          for k, v in preset.items()), command)
     return 0
 
 

@@ -91,6 +91,13 @@ def test_nan_in_poses(vase_small, tmp_path, capsys):
     assert rc == 2 and "pose 2 contains NaN" in err
 
 
+def test_a_3d_field_refuses_harmonics_above_degree_2(vase_small, tmp_path, capsys):
+    ds = written(vase_small, tmp_path)
+    rc, err = run_cli(["fit", "--data", ds, "--iters", "1", "--sh-degree", "3", "--out", tmp_path / "fit"], capsys)
+    assert rc == 2 and len(err.splitlines()) == 1 and "up to degree 2; choose 1 to 2" in err, err
+    assert not (tmp_path / "fit").exists()
+
+
 def test_a_failure_while_writing_leaves_nothing(bunny_small, tmp_path, monkeypatch):
     import imageio.v3 as iio
 

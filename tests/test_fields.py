@@ -6,6 +6,7 @@ import torch
 from drjit.auto.ad import Float
 
 from mitnerf.fields.encoding import angle_harmonics, encoded_size, positional_encoding
+from mitnerf.fields.grid import view_basis
 from mitnerf.fields.mlp import NeRFConfig, NeRFField, init_weights
 from mitnerf.reference.fields.mlp import NeRFField as TorchField
 
@@ -17,6 +18,17 @@ def test_angle_harmonics_by_hand():
     np.testing.assert_allclose([float(v[0]) for v in out],
                                [np.cos(t), np.sin(t), np.cos(2 * t), np.sin(2 * t), np.cos(4 * t), np.sin(4 * t)],
                                atol=1e-6)
+
+
+def test_view_harmonics_by_hand_in_both_backends():
+    # t = 30 degrees, degree 3: (1, cos t, sin t, cos 2t, sin 2t, cos 3t, sin 3t) = (1, .866, .5, .5, .866, 0, 1)
+    t = np.radians(30.0)
+    want = [1, np.cos(t), np.sin(t), 0.5, np.sqrt(0.75), 0, 1]
+    got = view_basis([Float(np.cos(t)), Float(np.sin(t))], 3)
+    np.testing.assert_allclose([float(v[0]) for v in got], want, atol=1e-6)
+    got = view_basis([torch.tensor([np.cos(t)]), torch.tensor([np.sin(t)])], 3)
+    np.testing.assert_allclose([float(v[0]) for v in got], want, atol=1e-6)
+    assert len(view_basis([Float(0.6), Float(0.0), Float(0.8)], 2)) == 9    # 3D: a sphere's 1 + 3 + 5
 
 
 def test_positional_encoding_size_and_values():

@@ -91,7 +91,8 @@ def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
     from mitnerf.data.rig import RigConfig
     from mitnerf.train.auto import AutoConfig, auto_size
 
-    cfg = AutoConfig(target_psnr=28.0, steps=250, families=("grid",), time_budget=120)
+    # validation PSNR at 33 / 65 vertices: the square 35.1 / 37.2 dB, the bunny 29.8 / 34.2 dB
+    cfg = AutoConfig(target_psnr=32.0, steps=250, families=("grid",), time_budget=120)
     chosen = {}
     for scene in ("square", "bunny"):
         ds = cached_dataset(scene, RigConfig(dim=2, n_train=30, n_val=4, n_test=4, seed=0))
@@ -100,7 +101,7 @@ def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
         assert result.reasons and len(result.trials) >= 2
         # view dependence and each regulariser were probed on the chosen size, each with its reason
         notes = [t.note for t in result.trials]
-        assert {"view dependence", "distortion_weight", "opacity_weight"} <= set(notes), notes
+        assert {"view dependence", "degree", "distortion_weight", "opacity_weight"} <= set(notes), notes
         assert any(r.startswith("distortion_weight = 0.001 ") for r in result.reasons), result.reasons
     assert chosen["square"] < chosen["bunny"], chosen
 

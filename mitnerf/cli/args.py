@@ -86,7 +86,8 @@ OVERRIDES = [
     ("--dir-L", "dir_L", dict(type=number(True, 0, 12)), "view-direction encoding frequencies"),
     ("--resolution", "resolution", dict(type=number(True, 2, 8193)), "grid vertices per axis"),
     ("--view-dependence", "view_dependent", dict(action=argparse.BooleanOptionalAction), "view-dependent colour"),
-    ("--sh-degree", "sh_degree", dict(type=number(True, 1, 2)), "grid: degree of the view-dependent harmonics"),
+    ("--sh-degree", "sh_degree", dict(type=number(True, 1, 8)),
+     "grid, hashlinear: degree of the view-dependent harmonics (2D up to 8, 3D up to 2)"),
     ("--density-activation", "density_activation", dict(choices=["relu", "softplus", "trunc_exp"]), "density"),
 ]
 

@@ -19,18 +19,30 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import ArrayXf, Float, UInt32
 
-from ..errors import check_number
+from ..errors import ConfigError, check_number
 from ..rng import hash_u32
 from .base import Field, cell_corners, check_config, density_activation, sigmoid
+
+
+MAX_SH_DEGREE = {2: 8, 3: 2}
+"""Highest degree of the view harmonics: a circle's harmonics cost two coefficients a degree, a sphere's
+``2 degree + 1``."""
 
 
 class GridSettings:
     """What the dense grid's config and the configs built like it (:mod:`.hashlinear`) share: the count of view
     harmonics, and the checks of the density scale and the total-variation weights."""
 
-    def check_weights(self) -> None:
+    def check_settings(self) -> None:
+        """Refuse a density scale, a total-variation weight or a harmonics degree out of range (after
+        :func:`~.base.check_config` has checked ``dim``)."""
         for name in ("density_scale", "tv_weight", "tv_color_weight"):
             check_number(name, getattr(self, name), 0, 1e9)
+        top = MAX_SH_DEGREE[self.dim]
+        check_number("sh_degree", self.sh_degree, 1, None, integer=True, flag="--sh-degree")
+        if self.sh_degree > top:
+            raise ConfigError(f"--sh-degree {self.sh_degree}: a {self.dim}D field carries harmonics up to degree "
+                              f"{top}; choose 1 to {top}")
 
     @property
     def color_coeffs(self) -> int:
@@ -54,7 +66,7 @@ class GridConfig(GridSettings):
     view_dependent: bool = False
     """View-dependent colour: harmonics of the view direction up to ``sh_degree`` per vertex."""
     sh_degree: int = 1
-    """Degree of the view-direction expansion (1 or 2) when ``view_dependent``."""
+    """Degree of the view-direction expansion when ``view_dependent``: up to 8 in 2D, 2 in 3D."""
     density_activation: str = "softplus"
     """``softplus``, ``relu`` or ``trunc_exp``, applied after interpolation."""
     density_init: float = -1.0
@@ -76,8 +88,8 @@ class GridConfig(GridSettings):
             self.initial_resolution = self.resolution
         self.upsample_at = tuple(self.upsample_at)
         top = 8193 if self.dim == 2 else 513
-        check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26), sh_degree=(1, 2))
-        self.check_weights()
+        check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26))
+        self.check_settings()
 
     def final(self) -> "GridConfig":
         """This config at the end of its coarse-to-fine schedule (what its size is judged by)."""
@@ -122,17 +134,19 @@ def interpolate(grid: Float, channels: int, corners, active=True) -> list:
 
 
 def view_basis(d: list, degree: int) -> list:
-    """Harmonics of a unit view direction up to ``degree`` (1 or 2); works on Dr.Jit arrays
-    and torch tensors alike. 2D ``d = (cos t, sin t)``: ``1, cos t, sin t, cos 2t, sin 2t``;
-    3D: ``1, x, y, z, xy, yz, 3z^2 - 1, xz, x^2 - y^2``."""
+    """Harmonics of a unit view direction up to ``degree``; works on Dr.Jit arrays and torch tensors alike.
+    2D ``d = (cos t, sin t)``: ``1, cos t, sin t, cos 2t, sin 2t, ...`` (any degree, by the angle-addition
+    formulas); 3D (degree 1 or 2): ``1, x, y, z, xy, yz, 3z^2 - 1, xz, x^2 - y^2``."""
     out = [d[0] * 0 + 1, *d]
-    if degree >= 2:
-        if len(d) == 2:
-            c, s = d
-            out += [c * c - s * s, 2 * c * s]
-        else:
-            x, y, z = d
-            out += [x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y]
+    if len(d) == 2:
+        c, s = d
+        ck, sk = c, s
+        for _ in range(degree - 1):
+            ck, sk = ck * c - sk * s, sk * c + ck * s
+            out += [ck, sk]
+    elif degree >= 2:
+        x, y, z = d
+        out += [x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y]
     return out
 
 

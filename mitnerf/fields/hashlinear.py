@@ -50,7 +50,7 @@ class HashLinearConfig(GridSettings):
     view_dependent: bool = True
     """View-dependent colour: harmonics of the view direction up to ``sh_degree`` (as the dense grid)."""
     sh_degree: int = 1
-    """Degree of the view-direction expansion (1 or 2) when ``view_dependent``."""
+    """Degree of the view-direction expansion when ``view_dependent``: up to 8 in 2D, 2 in 3D."""
     view_levels: int = 1
     """The first levels carry the view harmonics; finer ones only the base colour."""
     initial_levels: int = 2
@@ -74,7 +74,7 @@ class HashLinearConfig(GridSettings):
 
     def __post_init__(self):
         self.resolutions, self.add_level_at = tuple(self.resolutions), tuple(self.add_level_at)
-        check_config(self, dense_levels=(0, 32), log2_hashmap_size=(4, 24), sh_degree=(1, 2), view_levels=(1, 32),
+        check_config(self, dense_levels=(0, 32), log2_hashmap_size=(4, 24), view_levels=(1, 32),
                      initial_levels=(1, 32), tv_samples=(0, 1 << 26))
         top = 8193 if self.dim == 2 else 513
         if not self.resolutions or len(self.resolutions) > 32:
@@ -83,7 +83,7 @@ class HashLinearConfig(GridSettings):
             check_number("resolutions", r, 2, top, integer=True)
         if list(self.resolutions) != sorted(set(self.resolutions)):
             raise ConfigError(f"resolutions must increase from level to level, got {list(self.resolutions)}")
-        self.check_weights()
+        self.check_settings()
 
     def levels_at(self, step: int) -> int:
         """Levels in use at training step ``step``."""

@@ -4,9 +4,10 @@
 candidate's size) for ``probe_time`` seconds of the clock, so a faster model's extra steps count as they will in
 the real run; the score is validation PSNR. The chosen size is the smallest candidate within ``tolerance`` dB of
 the best probe, or, with ``target_psnr``, the first to reach it. Then half the samples per ray are tried, and
-view dependence and each regulariser are switched the other way from the recipe, one at a time: a switch is taken
-only where it gains ``vd_gain`` / ``reg_gain`` dB of validation PSNR, so the recipe's tuned setting stands where
-a few validation views cannot tell the two apart. Every trial and every decision's reason is kept."""
+view dependence, the view harmonics' degree (down to 1) and each regulariser are switched the other way from the
+recipe, one at a time: a switch is taken only where it gains ``vd_gain`` / ``reg_gain`` dB of validation PSNR, so
+the recipe's tuned setting stands where a few validation views cannot tell the two apart. Every trial and every
+decision's reason is kept."""
 
 from __future__ import annotations
 
@@ -54,7 +55,8 @@ class AutoConfig:
     families: tuple = ("grid", "vanilla", "hashgrid", "hashlinear")
     """Field families to consider."""
     vd_gain: float = 0.2
-    """Minimum validation-PSNR gain (dB) for switching view dependence the other way from the recipe."""
+    """Minimum validation-PSNR gain (dB) for switching view dependence the other way from the recipe, or for
+    lowering its harmonics to degree 1."""
     regularisers: tuple = (("tv_color_weight", 1e-2), ("distortion_weight", 1e-3), ("opacity_weight", 1e-3))
     """(training or field setting, weight) pairs tried one at a time on the chosen model, where its family
     has the setting."""
@@ -159,22 +161,27 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
         reasons.append(f"{samples} samples per ray " + (f"are enough ({t.val_psnr:.2f} dB)" if enough else
                        f"lose quality ({t.val_psnr:.2f} dB): keep {best.recipe.model.render.n_coarse}"))
         best = t if enough else best
-    options = [("view_dependent", True, cfg.vd_gain)] + [(k, w, cfg.reg_gain) for k, w in cfg.regularisers]
+    options = ([("view_dependent", True, cfg.vd_gain), ("sh_degree", 1, cfg.vd_gain)]
+               + [(k, w, cfg.reg_gain) for k, w in cfg.regularisers])
     for key, on, need in options:                  # a switch away from the recipe has to earn its place
         if not best.recipe.has(key):
             continue
         now = best.recipe.get(key)
-        label = "view dependence" if key == "view_dependent" else f"{key} = {now or on:g}"
+        if key == "sh_degree":                     # a lower degree of view harmonics, where there are any above 1
+            if not best.recipe.get("view_dependent") or now <= on:
+                continue
+            label, new, note = f"view harmonics of degree {now}", on, "degree"
+        else:
+            label = "view dependence" if key == "view_dependent" else f"{key} = {now or on:g}"
+            new, note = type(on)(0) if now else on, key.replace("view_dependent", "view dependence")
         if spent():
-            reasons.append(f"{label} not tried: the search budget is spent (left {'on' if now else 'off'}, "
-                           "as in the recipe)")
+            reasons.append(f"{label} not tried: the search budget is spent (left as in the recipe)")
             continue
-        t = trial(best.recipe.override(**{key: type(on)(0) if now else on}), key.replace("view_dependent",
-                                                                                         "view dependence"))
+        t = trial(best.recipe.override(**{key: new}), note)
         gain = t.val_psnr - best.val_psnr
-        take, verdict = switch(bool(now), gain, need)
-        reasons.append(f"{label} {verdict}: switching it {'off' if now else 'on'} gains {gain:+.2f} dB validation "
-                       f"PSNR (needs {need} dB)")
+        take, verdict = switch(True, gain, need) if key == "sh_degree" else switch(bool(now), gain, need)
+        how = f"degree {on}" if key == "sh_degree" else f"switching it {'off' if now else 'on'}"
+        reasons.append(f"{label} {verdict}: {how} gains {gain:+.2f} dB validation PSNR (needs {need} dB)")
         best = t if take else best
     return AutoResult(best.recipe, trials, reached, reasons)
 

@@ -119,11 +119,12 @@ def _r(name, dim, field, args, render, train, about) -> Recipe:
 _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock decides, not the step count
 RECIPES: dict[str, Recipe] = {r.name: r for r in [
     _r("grid-2d", 2, "grid", dict(resolution=257, initial_resolution=129, upsample_at=(150,), tv_weight=1e-4,
-                                  view_dependent=True, tv_color_weight=1e-2),
+                                  view_dependent=True, sh_degree=2, tv_color_weight=1e-2),
        dict(n_coarse=128), dict(time_budget=10.0, lr=0.2, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
-       "dense 2D grid, view-dependent colour, coarse to fine 129 -> 257, a high learning rate (10 s buys a few "
+       "dense 2D grid, view-dependent colour (harmonics to degree 2: a highlight is narrower than one cosine), "
+       "coarse to fine 129 -> 257, a high learning rate (10 s buys a few "
        "hundred steps, in which density has to go from transparent to opaque), colour TV + distortion + opacity "
        "losses, free space and solid matter where the data has depth (free space from alpha too), 10 s: the default "
        "for 2D datasets"),
@@ -137,13 +138,13 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "the test views), no occupancy grid (in 2D it skips less than it costs, and pruning in the first steps can "
        "leave a fit in a poor optimum), 10 s"),
     _r("hashlinear-2d", 2, "hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13,
-                                              view_levels=1, initial_levels=2, add_level_at=(150,)),
+                                              view_levels=1, sh_degree=2, initial_levels=2, add_level_at=(150,)),
        dict(n_coarse=128), dict(time_budget=10.0, lr=0.2, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
        "hash grid decoded linearly: levels 65 and 129 dense, 257 hashed into 2^13 entries, summed into the dense "
-       "grid's density and colour (view harmonics on the coarsest level); the 257 level joins at step 150; the "
-       "grid-2d recipe's losses and rate, 10 s, about a fifth of grid-2d's parameters"),
+       "grid's density and colour (view harmonics to degree 2 on the coarsest level); the 257 level joins at step 150; "
+       "the grid-2d recipe's losses and rate, 10 s, about a sixth of grid-2d's parameters"),
     _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-4,
                                   view_dependent=True, tv_color_weight=1e-2),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),

@@ -46,7 +46,7 @@ FIT_FLAGS = {"--iters": (True, 1, 10 ** 9, False), "--time-budget": (False, 0, 1
              "--depth-sigma": (False, 0, 1e6, True), "--samples": (True, 1, 4096, False),
              "--fine": (True, 0, 4096, False), "--width": (True, 2, 1024, False), "--depth": (True, 1, 32, False),
              "--pos-L": (True, 0, 24, False), "--dir-L": (True, 0, 12, False),
-             "--resolution": (True, 2, 8193, False)}
+             "--resolution": (True, 2, 8193, False), "--sh-degree": (True, 1, 8, False)}
 DATASET_FLAGS = {"--views": (True, 0, 100_000, False, ["0"]), "--val": (True, 0, 100_000, False),
                  "--test": (True, 0, 100_000, False), "--resolution": (True, 0, 16384, False, ["0"]),
                  "--radius": (False, 0, 1e4, True), "--fov": (False, 0, 179, True), "--noise": (False, 0, 100, False),
