@@ -127,16 +127,16 @@ def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTION
     return rows, (joined(old["command"], command) if kept else command)
 
 
-def record_longer(longer: dict, old: dict | None, args) -> None:
+def record_longer(runs: dict, old: dict | None, args) -> None:
     """Record ``fits/longer`` (``{scene: {"short", "long"}}``) after each scene, so a long run is not lost
     to a later failure; ``old``: the recorded entry whose other scenes a ``--redo`` keeps."""
     command = args.command
     if old and set(old["values"]) - set(args.scenes):
         command = joined(old["command"], command)
-    worst = min(v["long"] - v["short"] for v in longer.values())
-    record_result("fits/longer", longer,
+    worst = min(v["long"] - v["short"] for v in runs.values())
+    record_result("fits/longer", runs,
                   f"default 2D recipe, {args.budget:g} s -> {args.long:g} s: test PSNR change "
-                  + ", ".join(f"{s} {v['long'] - v['short']:+.2f} dB" for s, v in longer.items())
+                  + ", ".join(f"{s} {v['long'] - v['short']:+.2f} dB" for s, v in runs.items())
                   + (" (never lower)" if worst >= 0 else " (lower on some scene)"), command)
 
 
@@ -154,7 +154,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     args.command = " ".join(["python benchmarks/fit_table.py", *(argv if argv is not None else sys.argv[1:])])
     old_longer = load_results().get("fits/longer") if args.redo else None
-    longer = dict(old_longer["values"]) if old_longer else {}
+    long_runs = dict(old_longer["values"]) if old_longer else {}
     for scene in args.scenes:
         ds = dataset(scene, 2)
         rows, command = rows_for(f"fits/{scene}", ds, args.budget, args, not args.no_auto)
@@ -169,8 +169,8 @@ def main(argv=None) -> int:
             short, long = longer(ds, recipe_for(None, 2), args.budget, args.long)
             print(f"  longer training: {short['psnr']:.2f} dB at {args.budget:g} s -> {long['psnr']:.2f} dB at "
                   f"{args.long:g} s", flush=True)
-            longer[scene] = {"short": short["psnr"], "long": long["psnr"]}
-            record_longer(longer, old_longer, args)
+            long_runs[scene] = {"short": short["psnr"], "long": long["psnr"]}
+            record_longer(long_runs, old_longer, args)
     if not args.no_3d and set(args.redo or FAMILIES) & set(FAMILIES):
         ds = dataset("vase_glossy", 3)
         rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False,

@@ -1,9 +1,10 @@
 """How sharp a highlight the fields learn: the default recipes on scenes rendered at several roughnesses.
 
 The rough materials' highlight narrows as their GGX roughness (``--roughness``, Mitsuba's ``alpha``) falls:
-``bunny_glossy`` is 0.12. Each roughness is a dataset of the fit table's protocol (2D: the bunny, 50 noisy views of
-100 px; 3D: the vase, 25 views of 100 x 100), fitted by ``grid`` and ``hashlinear``'s recipes, each row's kernels
-compiled before its timed run (as in ``fit_table.py``). Every row: test PSNR, SSIM, IoU (2D) or Chamfer distance (3D).
+``bunny_glossy`` is 0.25 (``looks.ROUGHNESS``). Each roughness is a dataset of the fit table's protocol (2D: the
+bunny, 50 noisy views of 100 px; 3D: the vase, 25 views of 100 x 100), fitted by ``grid`` and ``hashlinear``'s
+recipes, each row's kernels compiled before its timed run (as in ``fit_table.py``). Every row: test PSNR, SSIM,
+IoU (2D) or Chamfer distance (3D).
 
 Beside the 2D rows, a reference that has the *exact* geometry: every training pixel's centre ray is intersected with
 the true outline, and the colour there is fitted by least squares as harmonics of the view angle (against the wall's
@@ -23,9 +24,9 @@ recipe we can rerun: the first wave's grid preset (:data:`PRESET`: no view depen
 each 2D roughness, and the diffuse bunny beside them (the report measured 33.2 dB there).
 
 Records ``glossy/2d``, ``glossy/3d``, ``glossy/longer`` and ``glossy/preset`` in ``results.json`` (``--parts``
-chooses which).
+chooses which); the 2D and 3D entries keep the recorded rows of roughnesses not rerun.
 
-    python benchmarks/glossy_sweep.py [--roughness 0.05 0.12 0.2 0.25 0.3 0.5] [--roughness-3d 0.12 0.2 0.3]
+    python benchmarks/glossy_sweep.py [--roughness 0.05 0.12 0.2 0.25 0.3 0.5] [--roughness-3d 0.12 0.2 0.25 0.3]
                                       [--long 0.3] [--long-budget 300] [--parts 2d long 3d preset]
 """
 
@@ -38,8 +39,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from fit_table import dataset, longer, row   # (fit_table imports _common, which chooses the Mitsuba variant)
-from mitnerf.results import record_result
+from fit_table import dataset, joined, longer, row   # (fit_table imports _common, which chooses the Mitsuba variant)
+from mitnerf.results import load_results, record_result
 from mitnerf.scenes.polygon import Polygon
 from mitnerf.train.metrics import psnr
 from mitnerf.train.recipes import recipe_for
@@ -119,10 +120,18 @@ def outline_harmonics(ds) -> dict:
     return {"psnr": psnr(predict(test, coef, degree), test["target"]), "degree": degree, "smoothness": lam}
 
 
+def merged(key: str, values: dict, command: str) -> tuple[dict, str]:
+    """``values`` (by roughness) over the rows recorded under ``key`` for other roughnesses; the commands of both."""
+    old = load_results().get(key, {})
+    kept = {r: v for r, v in old.get("values", {}).items() if r not in values}
+    rows = dict(sorted({**kept, **values}.items(), key=lambda kv: float(kv[0])))
+    return rows, joined(old["command"], command) if kept else command
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--roughness", type=float, nargs="+", default=[0.05, 0.12, 0.2, 0.25, 0.3, 0.5])
-    p.add_argument("--roughness-3d", type=float, nargs="+", default=[0.12, 0.2, 0.3])
+    p.add_argument("--roughness-3d", type=float, nargs="+", default=[0.12, 0.2, 0.25, 0.3])
     p.add_argument("--long", type=float, default=0.3, help="roughness of the long 2D run")
     p.add_argument("--long-budget", type=float, default=300.0)
     p.add_argument("--parts", nargs="+", choices=("2d", "long", "3d", "preset"),
@@ -141,9 +150,10 @@ def main(argv=None) -> int:
                                                  rows.items())
               + f"; outline harmonics {ref['psnr']:.2f} dB (degree {ref['degree']})", flush=True)
     if results2d:
-        record_result("glossy/2d", results2d, "2D bunny, 10 s, test PSNR by roughness: " + "; ".join(
+        rows2d, command2d = merged("glossy/2d", results2d, command)
+        record_result("glossy/2d", rows2d, "2D bunny, 10 s, test PSNR by roughness: " + "; ".join(
             f"{r} grid {v['grid']['psnr']:.2f}, hashlinear {v['hashlinear']['psnr']:.2f}, exact-outline harmonics "
-            f"{v['outline_harmonics']['psnr']:.2f} dB" for r, v in results2d.items()), command)
+            f"{v['outline_harmonics']['psnr']:.2f} dB" for r, v in rows2d.items()), command2d)
 
     if "long" in args.parts:
         ds = dataset(f"bunny_glossy_r{args.long:g}", 2)
@@ -164,9 +174,10 @@ def main(argv=None) -> int:
             results3d[f"{r:g}"] = {fam: row(ds, recipe_for(fam, 3), fam) for fam in FAMILIES}
             print(f"roughness {r:g}: " + ", ".join(f"{f} {x['psnr']:.2f} dB Chamfer {x['geometry']:.4f}"
                                                      for f, x in results3d[f"{r:g}"].items()), flush=True)
+        results3d, command3d = merged("glossy/3d", results3d, command)
         record_result("glossy/3d", results3d, "3D vase, 60 s, test PSNR / Chamfer by roughness: " + "; ".join(
             f"{r} " + ", ".join(f"{f} {x['psnr']:.2f} dB / {x['geometry']:.4f}" for f, x in v.items())
-            for r, v in results3d.items()), command)
+            for r, v in results3d.items()), command3d)
 
     if "preset" in args.parts:
         preset = {}

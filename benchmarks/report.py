@@ -10,7 +10,8 @@ produced it). This script renders it:
 * ``REPRODUCTION.md`` (:mod:`mitnerf.experiments.reproduction`: every claim of the two source
   reports beside our figure, from the ``experiment/...`` entries) and its figure
   ``docs/reproduction.png``;
-* ``docs/glossy.png``: test PSNR against roughness (``glossy/2d``, ``glossy/3d``), the goals marked.
+* ``docs/glossy.png``: test PSNR against roughness (``glossy/2d``, ``glossy/3d``), the goals marked; in 2D the
+  first wave's grid preset too (``glossy/preset``), beside its figure on issue 14's data.
 
     python benchmarks/report.py
 """
@@ -48,6 +49,10 @@ def rows_table(key: str, values: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+REPORTED_PRESET = 27.8
+"""Issue 14's report: the first wave's grid preset on its first glossy dataset, 10 s (dB)."""
+
+
 def glossy_figure(results: dict, path: Path) -> Path | None:
     """Test PSNR against the material's roughness, 2D and 3D side by side; None when nothing is recorded."""
     from mitnerf.viz.panels import pyplot, save
@@ -64,6 +69,13 @@ def glossy_figure(results: dict, path: Path) -> Path | None:
             if all(name in values[a] for a in alphas):
                 label = "appearance on the exact outline" if name == "outline_harmonics" else name
                 ax.plot([float(a) for a in alphas], [values[a][name]["psnr"] for a in alphas], style, label=label)
+        preset = results.get("glossy/preset", {}).get("values", {}) if key == "glossy/2d" else {}
+        shown = [a for a in alphas if f"bunny_glossy_r{a}" in preset]
+        if shown:           # the first wave's preset: where it meets issue 14's report is a roughness like theirs
+            ax.plot([float(a) for a in shown], [preset[f"bunny_glossy_r{a}"]["psnr"] for a in shown], "x:",
+                    color="grey", label="first-wave grid preset")
+            ax.axhline(REPORTED_PRESET, color="grey", lw=0.8, ls="--",
+                       label=f"that preset on the report's data, {REPORTED_PRESET:g} dB")
         ax.axhline(goal, color="r", lw=0.8, ls=":", label=f"goal {goal:g} dB")
         ax.set(title=f"{key}: {'bunny, 10 s' if key.endswith('2d') else 'vase, 60 s'}", xlabel="roughness (GGX alpha)",
                ylabel="test PSNR [dB]", xscale="log")

@@ -198,3 +198,20 @@ def test_show_writes_strips_and_rig(bunny_small, vase_small, tmp_path):
 
     strip = iio.imread(tmp_path / "bunny/figures/test_views.png")
     assert strip.shape[:2] == (200, 8 * 4 * 2)          # H x (views * column width), scaled by 2
+
+
+def test_the_cache_renders_again_when_a_default_look_changes(tmp_path, monkeypatch):
+    """``square_glossy`` names no roughness: a new default must not be served the old render."""
+    from mitnerf.data.cache import cached_dataset
+    from mitnerf.data.rig import RigConfig
+    from mitnerf.scenes import looks
+
+    monkeypatch.setenv("MITNERF_CACHE", str(tmp_path))
+    rig = RigConfig(dim=2, n_train=2, n_val=1, n_test=1, resolution=16, seed=0)
+    first = cached_dataset("square_glossy", rig)
+    again = cached_dataset("square_glossy", rig)
+    np.testing.assert_array_equal(first["train"].color, again["train"].color)           # served from the cache
+    monkeypatch.setitem(looks.ROUGHNESS, "roughplastic", 0.6)
+    broad = cached_dataset("square_glossy", rig)
+    assert len(list((tmp_path / "datasets").iterdir())) == 2
+    assert not np.array_equal(first["train"].color, broad["train"].color)

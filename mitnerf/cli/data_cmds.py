@@ -41,7 +41,7 @@ def register(sub) -> None:
     p.add_argument("--material", choices=list(MATERIALS), help="surface: diffuse (default), plastic (needs --env), "
                    "roughplastic, roughconductor, or textured (a barcode along a 2D outline)")
     p.add_argument("--roughness", type=number(False, 0, 1, True), help="GGX roughness of roughplastic (default "
-                   "0.12) or roughconductor (0.3): smaller gives sharper highlights")
+                   "0.25) or roughconductor (0.3): smaller gives sharper highlights")
     p.add_argument("--env", action="store_true", help="light the scene by a sky with a sun instead of point lights")
     p.add_argument("--integrator", choices=["all_lights", "path"], help="all_lights: noise-free sum over point "
                    "lights (default); path: Mitsuba's path tracer (default with --env)")

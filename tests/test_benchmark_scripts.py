@@ -1,0 +1,59 @@
+"""The benchmark scripts' bookkeeping (what they record, and what a rerun keeps), with the fits faked: the figures
+themselves are measured by running the scripts, never here."""
+
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+from mitnerf.results import load_results, record_result  # noqa: E402
+
+
+def fake_row(ds, recipe, label, extra_time=0.0):
+    """A row whose PSNR is 30 dB plus a hundredth of its budget, so a longer run scores higher."""
+    budget = recipe.train.time_budget
+    return {"run": label, "recipe": recipe.name, "psnr": 30 + budget / 100, "ssim": 0.9, "geometry": 0.95,
+            "params": 1, "seconds": budget + extra_time, "status": "ok"}
+
+
+@pytest.fixture
+def results(tmp_path, monkeypatch):
+    path = tmp_path / "results.json"
+    monkeypatch.setenv("MITNERF_RESULTS", str(path))
+    return path
+
+
+def test_fit_table_records_every_row_and_the_longer_runs(results, monkeypatch):
+    import fit_table
+
+    monkeypatch.setattr(fit_table, "dataset", lambda scene, dim: SimpleNamespace(dim=dim))
+    monkeypatch.setattr(fit_table, "row", fake_row)
+    assert fit_table.main(["--scenes", "square", "tu", "--budget", "10", "--long", "300", "--long-scenes", "tu",
+                           "--no-3d", "--no-auto"]) == 0
+    recorded = load_results()
+    rows = recorded["fits/square"]["values"]["rows"]
+    assert {r["run"].split(",")[0] for r in rows} == set(fit_table.FAMILIES)
+    assert sum("[recipe]" in r["run"] for r in rows) == len(fit_table.FAMILIES)     # each family's own set, once
+    assert recorded["fits/longer"]["values"] == {"tu": {"short": 30.1, "long": 33.0}}
+    # a rerun of the longer runs on another scene keeps tu's and names both commands
+    assert fit_table.main(["--scenes", "square", "--budget", "10", "--long", "60", "--long-scenes", "square",
+                           "--redo", "longer", "--no-3d", "--no-auto"]) == 0
+    entry = load_results()["fits/longer"]
+    assert entry["values"] == {"tu": {"short": 30.1, "long": 33.0}, "square": {"short": 30.1, "long": 30.6}}
+    assert entry["command"].count(" && ") == 1
+
+
+def test_glossy_sweep_keeps_the_rows_of_roughnesses_not_rerun(results):
+    import glossy_sweep
+
+    record_result("glossy/3d", {"0.12": {"grid": 1}, "0.3": {"grid": 2}}, "old", "python benchmarks/glossy_sweep.py")
+    rows, command = glossy_sweep.merged("glossy/3d", {"0.25": {"grid": 3}, "0.3": {"grid": 4}},
+                                        "python benchmarks/glossy_sweep.py --roughness-3d 0.25 0.3")
+    assert rows == {"0.12": {"grid": 1}, "0.25": {"grid": 3}, "0.3": {"grid": 4}}       # in order of roughness
+    assert list(rows) == ["0.12", "0.25", "0.3"]
+    assert command == "python benchmarks/glossy_sweep.py && python benchmarks/glossy_sweep.py --roughness-3d 0.25 0.3"
+    rows, command = glossy_sweep.merged("glossy/3d", {"0.12": {}, "0.3": {}}, "again")
+    assert command == "again"                                                               # nothing kept
