@@ -31,7 +31,7 @@ MAX_SH_DEGREE = {2: 8, 3: 2}
 
 class GridSettings:
     """What the dense grid's config and the configs built like it (:mod:`.hashlinear`) share: the count of view
-    harmonics, and the checks of the density scale and the total-variation weights."""
+    harmonics, and the checks of the density scale, the total-variation weights and the harmonics' degree."""
 
     def check_settings(self) -> None:
         """Refuse a density scale, a total-variation weight or a harmonics degree out of range (after
