@@ -10,7 +10,7 @@ from tqdm.auto import tqdm
 from .. import __version__
 from ..errors import ConfigError
 from ..scenes.gt_render import RenderSettings, exact_depth, render_color
-from ..scenes.looks import ROUGHNESS, roughness_of
+from ..scenes.looks import roughness_of
 from ..scenes.registry import SceneInfo
 from .cameras import Cameras
 from .dataset import Dataset, Split, bounds_from_cameras
@@ -58,6 +58,7 @@ def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderS
     meta.update({k: str(v) for k, v in (("mesh", scene.mesh), ("texture", scene.texture)) if v is not None})
     if (scene.material, scene.lighting) != ("diffuse", "points"):    # default datasets keep their bytes
         meta.update(material=scene.material, lighting=scene.lighting)
-    if scene.material in ROUGHNESS:
-        meta["roughness"] = roughness_of(scene.material, scene.roughness)
+    roughness = roughness_of(scene.material, scene.roughness)         # None: a material without one
+    if roughness is not None:
+        meta["roughness"] = roughness
     return Dataset(splits, near, far, meta)

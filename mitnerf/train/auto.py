@@ -170,17 +170,17 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
         if key == "sh_degree":                     # a lower degree of view harmonics, where there are any above 1
             if not best.recipe.get("view_dependent") or now <= on:
                 continue
-            label, new, note = f"view harmonics of degree {now}", on, "degree"
+            label, new, note, how = f"view harmonics of degree {now}", on, "degree", f"degree {on}"
         else:
             label = "view dependence" if key == "view_dependent" else f"{key} = {now or on:g}"
             new, note = type(on)(0) if now else on, key.replace("view_dependent", "view dependence")
+            how = f"switching it {'off' if now else 'on'}"
         if spent():
             reasons.append(f"{label} not tried: the search budget is spent (left as in the recipe)")
             continue
         t = trial(best.recipe.override(**{key: new}), note)
         gain = t.val_psnr - best.val_psnr
-        take, verdict = switch(True, gain, need) if key == "sh_degree" else switch(bool(now), gain, need)
-        how = f"degree {on}" if key == "sh_degree" else f"switching it {'off' if now else 'on'}"
+        take, verdict = switch(bool(now), gain, need)        # a degree above 1 counts as on: dropped or kept
         reasons.append(f"{label} {verdict}: {how} gains {gain:+.2f} dB validation PSNR (needs {need} dB)")
         best = t if take else best
     return AutoResult(best.recipe, trials, reached, reasons)
