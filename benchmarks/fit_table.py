@@ -2,7 +2,7 @@
 
 Every 2D scene (the NeRF2D protocol: 50 noisy views of 100 px, 4 validation, 8 test views)
 is fitted by each family's recipe (``grid-2d``, ``hashlinear-2d``, ``hashgrid-2d``, ``vanilla-2d``) for
-``--budget`` seconds with each option set of ``OPTIONS`` (view dependence on or off, the
+``--budget`` seconds with each option set of :func:`options` (view dependence on or off, the
 regularisers on or off; the recipe's own set is marked), then by ``mitnerf fit --auto``'s
 choice (marked ``auto``; its probes train as long as the rows, the search stops after 150 s,
 and its time is counted). The 3D rows fit a glossy vase (25 views of 100 x 100) for
@@ -29,28 +29,35 @@ from _common import warm_kernels   # (importing _common chooses the Mitsuba vari
 from mitnerf.data.cache import cached_dataset
 from mitnerf.data.rig import RigConfig, noise_preset
 from mitnerf.results import load_results, record_result
-from mitnerf.train.auto import AutoConfig, choose_recipe
+from mitnerf.train.auto import AutoConfig, choose_recipe, regulariser_weights
 from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
 
-_REG = dict(AutoConfig.regularisers)     # the losses and weights fit --auto tries
 _DEPTH = {k: recipe_for("grid", 2).get(k) for k in ("free_space_weight", "solid_weight")}   # losses on depth maps
-_OFF = {"view_dependent": False, **{k: 0.0 for k in (*_REG, *_DEPTH)}}
-OPTIONS = {
-    "plain": _OFF,
-    "view dependence": {**_OFF, "view_dependent": True},
-    "regularised": {**_OFF, **_REG},
-    "view dep. + dist. + opacity": {**_OFF, **_REG, "view_dependent": True, "tv_color_weight": 0.0},
-    "view dep. + reg.": {**_OFF, "view_dependent": True, **_REG},
-    "view dep. + reg. + free space": {**_OFF, "view_dependent": True, **_REG,
-                                      "free_space_weight": _DEPTH["free_space_weight"]},
-    "view dep. + reg. + free space + solid": {**_OFF, "view_dependent": True, **_REG, **_DEPTH},
-}
-"""Option sets, each stating every option, applied on top of each family's recipe (the colour total
-variation only where the family has it: a set that then repeats an earlier one is skipped); the row
-whose set is the recipe's own is marked ``[recipe]``. "reg." is the colour total variation, the
-distortion and the opacity loss; "free space" and "solid" the losses on the dataset's depth maps (our
-scenes carry them)."""
+
+
+def options(dim: int) -> dict[str, dict]:
+    """Option sets, each stating every option, applied on top of each family's recipe (the colour total variation
+    only where the family has it: a set that then repeats an earlier one is skipped); the row whose set is the
+    recipe's own is marked ``[recipe]``. "reg." is the colour total variation, the distortion and the opacity loss
+    at the weights ``fit --auto`` switches them on with in ``dim`` (:func:`regulariser_weights`); "free space" and
+    "solid" the losses on the dataset's depth maps (our scenes carry them)."""
+    reg = dict(regulariser_weights(AutoConfig(), dim))
+    off = {"view_dependent": False, **{k: 0.0 for k in (*reg, *_DEPTH)}}
+    return {
+        "plain": off,
+        "view dependence": {**off, "view_dependent": True},
+        "regularised": {**off, **reg},
+        "view dep. + dist. + opacity": {**off, **reg, "view_dependent": True, "tv_color_weight": 0.0},
+        "view dep. + reg.": {**off, "view_dependent": True, **reg},
+        "view dep. + reg. + free space": {**off, "view_dependent": True, **reg,
+                                          "free_space_weight": _DEPTH["free_space_weight"]},
+        "view dep. + reg. + free space + solid": {**off, "view_dependent": True, **reg, **_DEPTH},
+    }
+
+
+OPTIONS_3D = ("plain", "view dependence", "view dep. + reg.", "view dep. + reg. + free space + solid")
+"""The option sets of the 3D rows (a minute each)."""
 FAMILIES = ("grid", "hashlinear", "hashgrid", "vanilla")
 
 
@@ -84,13 +91,14 @@ def show(scene: str, rows: list[dict], dim: int) -> None:
               f"{r['seconds']:6.1f}  {r['status']}", flush=True)
 
 
-def table(ds, budget: float, auto: bool, options=tuple(OPTIONS), families=FAMILIES) -> list[dict]:
+def table(ds, budget: float, auto: bool, names=None, families=FAMILIES) -> list[dict]:
+    sets = options(ds.dim)
     rows = []
     for family in families:
         base = recipe_for(family, ds.dim).override(time_budget=budget, iters=10 ** 6, progress=False)
         done = []
-        for name in options:
-            r = base.override(**{k: v for k, v in OPTIONS[name].items() if base.has(k)})
+        for name in names or sets:
+            r = base.override(**{k: v for k, v in sets[name].items() if base.has(k)})
             if r.essence() in done:
                 continue
             done.append(r.essence())
@@ -109,16 +117,16 @@ def joined(old: str, new: str) -> str:
     return " && ".join([p for p in parts if p != new] + [new])
 
 
-def rows_for(key: str, ds, budget: float, args, auto: bool, options=tuple(OPTIONS)) -> tuple[list[dict], str]:
+def rows_for(key: str, ds, budget: float, args, auto: bool, names=None) -> tuple[list[dict], str]:
     """The table of one scene and the command that made it: every row, or with ``--redo`` the named families'
     (and ``auto``) rows anew and the others as recorded."""
     command = args.command
     if not args.redo:
-        return table(ds, budget, auto, options), command
+        return table(ds, budget, auto, names), command
     old = load_results().get(key)
     if old is None:
         raise SystemExit(f"fit_table: no {key} in results.json; run without --redo first")
-    new = table(ds, budget, auto and "auto" in args.redo, options, [f for f in FAMILIES if f in args.redo])
+    new = table(ds, budget, auto and "auto" in args.redo, names, [f for f in FAMILIES if f in args.redo])
     kept = [r for r in old["values"]["rows"] if r["run"].split(",")[0] not in args.redo]
     order = {f: i for i, f in enumerate((*FAMILIES, "auto"))}
     rows = sorted(kept + new, key=lambda r: order[r["run"].split(",")[0]])          # stable: options keep their order
@@ -173,9 +181,7 @@ def main(argv=None) -> int:
             record_longer(long_runs, old_longer, args)
     if not args.no_3d and set(args.redo or FAMILIES) & set(FAMILIES):
         ds = dataset("vase_glossy", 3)
-        rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False,
-                                 ("plain", "view dependence", "view dep. + reg.",
-                                  "view dep. + reg. + free space + solid"))
+        rows, command = rows_for("fits/vase_glossy", ds, args.budget_3d, args, False, OPTIONS_3D)
         show("vase_glossy (3D, 25 views)", rows, 3)
         best = max((r for r in rows if r["status"] == "ok"), key=lambda r: r["psnr"])
         record_result("fits/vase_glossy", {"rows": rows, "geometry": "Chamfer"},

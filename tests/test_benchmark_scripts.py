@@ -46,6 +46,19 @@ def test_fit_table_records_every_row_and_the_longer_runs(results, monkeypatch):
     assert entry["command"].count(" && ") == 1
 
 
+def test_fit_table_marks_each_3d_recipe_among_its_option_sets(results, monkeypatch):
+    """The 3D "reg." set carries 3D's own weights, so the 3D recipes' rows are found and marked too."""
+    import fit_table
+
+    monkeypatch.setattr(fit_table, "dataset", lambda scene, dim: SimpleNamespace(dim=dim))
+    monkeypatch.setattr(fit_table, "row", fake_row)
+    assert fit_table.main(["--scenes", "--no-auto", "--budget-3d", "60"]) == 0
+    rows = load_results()["fits/vase_glossy"]["values"]["rows"]
+    marked = sorted(r["run"].split(",")[0] for r in rows if "[recipe]" in r["run"])
+    assert marked == sorted(fit_table.FAMILIES)
+    assert all(r["seconds"] == 60 for r in rows)
+
+
 def test_glossy_sweep_keeps_the_rows_of_roughnesses_not_rerun(results):
     import glossy_sweep
 

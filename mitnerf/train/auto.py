@@ -57,9 +57,9 @@ class AutoConfig:
     vd_gain: float = 0.2
     """Minimum validation-PSNR gain (dB) for switching view dependence the other way from the recipe, or for
     lowering its harmonics to degree 1."""
-    regularisers: tuple = (("tv_color_weight", 1e-2), ("distortion_weight", 1e-3), ("opacity_weight", 1e-3))
-    """(training or field setting, weight) pairs tried one at a time on the chosen model, where its family
-    has the setting."""
+    regularisers: tuple = ("tv_color_weight", "distortion_weight", "opacity_weight")
+    """Training or field settings tried one at a time on the chosen model, where its family has the setting; one
+    that the model has off is switched on at :func:`regulariser_weights`' weight."""
     reg_gain: float = 0.2
     """Minimum validation-PSNR gain (dB) for switching a regulariser the other way from the recipe."""
     seed: int = 0
@@ -85,6 +85,14 @@ class AutoResult:
     @property
     def model(self):
         return self.recipe.model
+
+
+def regulariser_weights(cfg: AutoConfig, dim: int) -> list[tuple[str, float]]:
+    """``(setting, weight)`` of each of ``cfg.regularisers``: the weight the dimension's default recipe is tuned
+    with (in 3D, where 25 views see each point from few directions, a colour total variation as strong as 2D's
+    smooths away the highlights; ``fit_table.py``'s 3D rows measure it)."""
+    default = recipe_for(None, dim)
+    return [(key, default.get(key)) for key in cfg.regularisers]
 
 
 def probe_seconds(cfg: AutoConfig, dim: int) -> float:
@@ -162,7 +170,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
                        f"lose quality ({t.val_psnr:.2f} dB): keep {best.recipe.model.render.n_coarse}"))
         best = t if enough else best
     options = ([("view_dependent", True, cfg.vd_gain), ("sh_degree", 1, cfg.vd_gain)]
-               + [(k, w, cfg.reg_gain) for k, w in cfg.regularisers])
+               + [(k, w, cfg.reg_gain) for k, w in regulariser_weights(cfg, dataset.dim)])
     for key, on, need in options:                  # a switch away from the recipe has to earn its place
         if not best.recipe.has(key):
             continue
