@@ -151,9 +151,9 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=2048, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "dense voxel grid, view-dependent colour, coarse to fine 33 -> 129, occupancy grid, a high learning rate "
-       "(60 s buys under a thousand steps), a colour TV about 30 times weaker than 2D's (25 views of 100 x 100 carry the texture "
-       "and the highlights: 2D's weight blurs both away), distortion + opacity losses, free space and solid matter "
-       "where the data has depth, 60 s: the default for 3D datasets"),
+       "(60 s buys under a thousand steps), a colour TV about 30 times weaker than 2D's (25 views of 100 x 100 "
+       "carry the texture and the highlights: 2D's weight blurs both away), distortion + opacity losses, free "
+       "space and solid matter where the data has depth, 60 s: the default for 3D datasets"),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17,
                                               view_levels=1, initial_levels=1, add_level_at=(200, 600),
                                               tv_color_weight=3e-4),
