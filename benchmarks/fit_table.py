@@ -33,7 +33,7 @@ from mitnerf.train.auto import AutoConfig, choose_recipe, regulariser_weights
 from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
 
-_DEPTH = {k: recipe_for("grid", 2).get(k) for k in ("free_space_weight", "solid_weight")}   # losses on depth maps
+DEPTH_LOSSES = ("free_space_weight", "solid_weight")
 
 
 def options(dim: int) -> dict[str, dict]:
@@ -41,9 +41,10 @@ def options(dim: int) -> dict[str, dict]:
     only where the family has it: a set that then repeats an earlier one is skipped); the row whose set is the
     recipe's own is marked ``[recipe]``. "reg." is the colour total variation, the distortion and the opacity loss
     at the weights ``fit --auto`` switches them on with in ``dim`` (:func:`regulariser_weights`); "free space" and
-    "solid" the losses on the dataset's depth maps (our scenes carry them)."""
+    "solid" the losses on the dataset's depth maps (our scenes carry them), at the weights of the same recipe."""
     reg = dict(regulariser_weights(AutoConfig(), dim))
-    off = {"view_dependent": False, **{k: 0.0 for k in (*reg, *_DEPTH)}}
+    depth = {k: recipe_for(None, dim).get(k) for k in DEPTH_LOSSES}
+    off = {"view_dependent": False, **{k: 0.0 for k in (*reg, *depth)}}
     return {
         "plain": off,
         "view dependence": {**off, "view_dependent": True},
@@ -51,8 +52,8 @@ def options(dim: int) -> dict[str, dict]:
         "view dep. + dist. + opacity": {**off, **reg, "view_dependent": True, "tv_color_weight": 0.0},
         "view dep. + reg.": {**off, "view_dependent": True, **reg},
         "view dep. + reg. + free space": {**off, "view_dependent": True, **reg,
-                                          "free_space_weight": _DEPTH["free_space_weight"]},
-        "view dep. + reg. + free space + solid": {**off, "view_dependent": True, **reg, **_DEPTH},
+                                          "free_space_weight": depth["free_space_weight"]},
+        "view dep. + reg. + free space + solid": {**off, "view_dependent": True, **reg, **depth},
     }
 
 

@@ -26,11 +26,17 @@ def results(tmp_path, monkeypatch):
     return path
 
 
-def test_fit_table_records_every_row_and_the_longer_runs(results, monkeypatch):
+@pytest.fixture
+def fit_table(monkeypatch):
+    """The fit table script with its datasets and fits faked."""
     import fit_table
 
     monkeypatch.setattr(fit_table, "dataset", lambda scene, dim: SimpleNamespace(dim=dim))
     monkeypatch.setattr(fit_table, "row", fake_row)
+    return fit_table
+
+
+def test_fit_table_records_every_row_and_the_longer_runs(results, fit_table):
     assert fit_table.main(["--scenes", "square", "tu", "--budget", "10", "--long", "300", "--long-scenes", "tu",
                            "--no-3d", "--no-auto"]) == 0
     recorded = load_results()
@@ -46,12 +52,8 @@ def test_fit_table_records_every_row_and_the_longer_runs(results, monkeypatch):
     assert entry["command"].count(" && ") == 1
 
 
-def test_fit_table_marks_each_3d_recipe_among_its_option_sets(results, monkeypatch):
+def test_fit_table_marks_each_3d_recipe_among_its_option_sets(results, fit_table):
     """The 3D "reg." set carries 3D's own weights, so the 3D recipes' rows are found and marked too."""
-    import fit_table
-
-    monkeypatch.setattr(fit_table, "dataset", lambda scene, dim: SimpleNamespace(dim=dim))
-    monkeypatch.setattr(fit_table, "row", fake_row)
     assert fit_table.main(["--scenes", "--no-auto", "--budget-3d", "60"]) == 0
     rows = load_results()["fits/vase_glossy"]["values"]["rows"]
     marked = sorted(r["run"].split(",")[0] for r in rows if "[recipe]" in r["run"])
