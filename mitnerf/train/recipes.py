@@ -120,7 +120,7 @@ _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock deci
 RECIPES: dict[str, Recipe] = {r.name: r for r in [
     _r("grid-2d", 2, "grid", dict(resolution=257, initial_resolution=129, upsample_at=(150,), tv_weight=1e-4,
                                   view_dependent=True, sh_degree=2, tv_color_weight=1e-2),
-       dict(n_coarse=128), dict(time_budget=10.0, lr=0.2, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
+       dict(n_coarse=128), dict(time_budget=10.0, lr=0.3, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
        "dense 2D grid, view-dependent colour (harmonics to degree 2: a highlight is narrower than one cosine), "
@@ -139,7 +139,7 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "leave a fit in a poor optimum), 10 s"),
     _r("hashlinear-2d", 2, "hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13,
                                               view_levels=1, sh_degree=2, initial_levels=2, add_level_at=(150,)),
-       dict(n_coarse=128), dict(time_budget=10.0, lr=0.2, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
+       dict(n_coarse=128), dict(time_budget=10.0, lr=0.3, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
        "hash grid decoded linearly: levels 65 and 129 dense, 257 hashed into 2^13 entries, summed into the dense "
