@@ -131,6 +131,22 @@ def test_auto_switches_an_option_only_where_it_gains_the_threshold():
     assert switch(False, 0.2, 0.2) == (True, "added")         # exactly the threshold is enough
 
 
+def test_auto_switches_each_regulariser_on_at_a_weight_that_does_something():
+    """``fit --auto`` switches a loss on at the dimension's default recipe's weight: never at 0, which would probe
+    the recipe itself."""
+    from mitnerf.train.auto import AutoConfig, regulariser_weights
+    from mitnerf.train.recipes import recipe_for
+
+    for dim in (2, 3):
+        weights = dict(regulariser_weights(AutoConfig(), dim))
+        assert set(weights) == set(AutoConfig().regularisers)
+        assert all(w > 0 for w in weights.values()), (dim, weights)
+        assert weights == {k: recipe_for(None, dim).get(k) for k in weights}
+    # 2D's colour total variation is 1e-2, 3D's 3e-4: each dimension switches it on at its own weight
+    assert dict(regulariser_weights(AutoConfig(), 3))["tv_color_weight"] < \
+        dict(regulariser_weights(AutoConfig(), 2))["tv_color_weight"]
+
+
 def test_auto_keeps_what_the_user_typed():
     """``fit --auto --lr 0.02 --time-budget 3``: the search picks the model, the user's settings still hold."""
     from mitnerf.data.cache import cached_dataset
