@@ -1,7 +1,9 @@
 """User errors, one type per kind; every message names the problem *and* the fix. Entry points print
 them as one line and exit with status 2; library code raises them and never calls ``sys.exit``."""
 
+import errno
 import math
+import os
 
 
 class MitnerfError(ValueError):
@@ -28,6 +30,11 @@ class EnvironmentProblem(MitnerfError):
     """The machine lacks something mitnerf needs (LLVM >= 16, a Mitsuba variant, memory)."""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Python runs next (the command line's handler), so that every ``finally`` (staging
+    folders, locks) runs as for Ctrl-C."""
+
+
 def check_number(name: str, value, lo=None, hi=None, integer: bool = False, strict_lo: bool = False,
                  flag: str | None = None) -> None:
     """Raise :class:`ConfigError` for a setting outside ``[lo, hi]`` (``(lo, hi]`` with
@@ -41,3 +48,23 @@ def check_number(name: str, value, lo=None, hi=None, integer: bool = False, stri
         raise ConfigError(f"{what} must be {'>' if strict_lo else '>='} {lo:g}, got {value:g}")
     if hi is not None and value > hi:
         raise ConfigError(f"{what} must be <= {hi:g}, got {value:g}")
+
+
+_FIXES = {
+    errno.ENOSPC: "free some space or choose another place", errno.EDQUOT: "free some space or choose another place",
+    errno.EACCES: "check its permissions or choose another place", errno.EPERM: "check its permissions or choose "
+    "another place", errno.EROFS: "its file system is read-only: choose another place",
+    errno.ENAMETOOLONG: "choose a shorter name", errno.ENOTDIR: "a part of the path is a file, not a folder: choose "
+    "another path", errno.EISDIR: "it is a folder where a file was expected: choose another path",
+    errno.ENOENT: "it vanished while mitnerf worked: check the path", errno.ELOOP: "it runs through a link mitnerf "
+    "does not follow: give the real path", errno.EIO: "the disk reported an error: check it",
+    errno.EMFILE: "too many open files: raise the limit (ulimit -n)",
+}
+
+
+def os_error_line(exc: OSError, where=None) -> str:
+    """One line for a file-system failure: where (``where``, else the paths the error names), what, and the fix
+    (the command line prints it, exit 2)."""
+    where = where or " -> ".join(os.fsdecode(f) for f in (exc.filename, exc.filename2) if f is not None) or "a file"
+    what = exc.strerror or str(exc) or type(exc).__name__
+    return f"{where}: {what}; {_FIXES.get(exc.errno, 'check the path and the disk')}"

@@ -10,6 +10,7 @@ import pytest
 
 from mitnerf.cli import main
 from mitnerf.data.formats import save_dataset
+from mitnerf.errors import OutputError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -111,7 +112,7 @@ def test_a_failure_while_writing_leaves_nothing(bunny_small, tmp_path, monkeypat
         return real(*args, **kwargs)
 
     monkeypatch.setattr(iio, "imwrite", flaky)
-    with pytest.raises(OSError):
+    with pytest.raises(OutputError, match="ds: disk full"):          # named by the output, not its staging
         save_dataset(bunny_small, tmp_path / "ds")
     assert list(tmp_path.iterdir()) == []
     # an existing dataset survives a failed overwrite
@@ -120,7 +121,7 @@ def test_a_failure_while_writing_leaves_nothing(bunny_small, tmp_path, monkeypat
     before = sorted(p.name for p in (tmp_path / "ds" / "train").iterdir())
     calls["n"] = 0
     monkeypatch.setattr(iio, "imwrite", flaky)
-    with pytest.raises(OSError):
+    with pytest.raises(OutputError):
         save_dataset(bunny_small, tmp_path / "ds")
     assert sorted(p.name for p in (tmp_path / "ds" / "train").iterdir()) == before
     assert [p.name for p in tmp_path.iterdir()] == ["ds"]

@@ -2,9 +2,12 @@
 and the cache survives two processes filling the same entry."""
 
 import json
+import os
+import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 import pytest
 from conftest import ROOT
@@ -53,15 +56,20 @@ def test_overwrite_writes_mitnerfs_files_and_leaves_the_rest(tmp_path):
     assert (mine / "README.txt").read_text() == "mine" and (mine / "train" / "transforms.json").exists()
 
 
-def test_an_earlier_output_of_the_same_kind_is_replaced_whole(tmp_path):
+def test_an_earlier_output_of_the_same_kind_is_replaced_whole(tmp_path, capsys):
     out = tmp_path / "ds"
     assert main([*DATASET, "--out", str(out)]) == 0
-    assert json.loads((out / MARKER).read_text())["kind"] == "dataset"
-    (out / "train" / "stale.png").write_bytes(b"from before")      # inside our own output: replaced with it
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["kind"] == "dataset" and "train/transforms.json" in marker["files"]     # it lists what it wrote
+    before = (out / "train" / "transforms.json").read_bytes()
     assert main([*DATASET, "--out", str(out), "--seed", "3"]) == 0
-    assert not (out / "train" / "stale.png").exists() and leftovers(tmp_path) == []
+    assert (out / "train" / "transforms.json").read_bytes() != before and leftovers(tmp_path) == []
     with pytest.raises(OutputError, match="holds a mitnerf dataset output"):     # another kind is refused
         Output(out, "fit")
+    (out / "train" / "mine.png").write_bytes(b"the user's")        # a file the user put into our output
+    capsys.readouterr()
+    assert main([*DATASET, "--out", str(out), "--seed", "4"]) == 2
+    assert "train/mine.png" in capsys.readouterr().err and (out / "train" / "mine.png").read_bytes() == b"the user's"
 
 
 def test_an_empty_folder_is_used_and_a_failure_leaves_nothing(tmp_path):
@@ -79,15 +87,19 @@ def test_an_empty_folder_is_used_and_a_failure_leaves_nothing(tmp_path):
 
 
 def test_two_processes_filling_one_cache_entry(tmp_path, monkeypatch):
-    """Both builders run at once (a barrier file makes them overlap); both get the same, whole entry."""
+    """Both ask at the same moment (a barrier makes them overlap): one builds while the other waits for its lock,
+    then both get the same, whole entry, built once, and nothing else is left in the cache."""
     script = textwrap.dedent(f"""
         import os, sys, time
         os.environ["MITNERF_CACHE"] = {str(tmp_path / "cache")!r}
         from mitnerf._io import cache_entry
+        open({str(tmp_path)!r} + "/ready-" + sys.argv[1], "w").close()
+        while len([f for f in os.listdir({str(tmp_path)!r}) if f.startswith("ready-")]) < 2:
+            time.sleep(0.01)
         def build(tmp):
-            open({str(tmp_path)!r} + "/started-" + sys.argv[1], "w").close()
-            while len([f for f in os.listdir({str(tmp_path)!r}) if f.startswith("started-")]) < 2:
-                time.sleep(0.01)
+            with open({str(tmp_path / "builds")!r}, "a") as log:
+                log.write(sys.argv[1])
+            time.sleep(0.5)                      # the other process asks meanwhile
             for i in range(50):
                 (tmp / f"part{{i}}").write_text(sys.argv[1] * 1000)
         print(cache_entry("datasets/shared", build))
@@ -96,6 +108,7 @@ def test_two_processes_filling_one_cache_entry(tmp_path, monkeypatch):
              for name in "ab"]
     outs = [p.communicate(timeout=60)[0].strip() for p in procs]
     assert all(p.returncode == 0 for p in procs) and outs[0] == outs[1]
+    assert len((tmp_path / "builds").read_text()) == 1                                           # built once
     entry = tmp_path / "cache" / "datasets" / "shared"
     files = sorted(entry.iterdir())
     assert len(files) == 51 and len({f.read_text() for f in files if f.name != MARKER}) == 1     # one builder's
@@ -103,3 +116,122 @@ def test_two_processes_filling_one_cache_entry(tmp_path, monkeypatch):
     monkeypatch.setenv("MITNERF_CACHE", str(tmp_path / "cache"))
     calls = []
     assert cache_entry("datasets/shared", calls.append) == entry and calls == []                   # reused
+
+
+# ------------------------------------------------------------------- the situations the faults issue lists
+
+def one_line(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = [x for x in err.replace("\r", "\n").splitlines() if "mitnerf:" in x]     # not the progress bars
+    assert len(lines) == 1 and lines[0].startswith("mitnerf: error: ") and "Traceback" not in err, err
+    return lines[0]
+
+
+def test_overwrite_never_makes_a_users_folder_mitnerfs(tmp_path, capsys):
+    """`--overwrite` writes beside the user's files and leaves the folder theirs: the next plain run is refused
+    instead of replacing the folder (and the thesis with it)."""
+    mine = tmp_path / "F"
+    mine.mkdir()
+    (mine / "thesis.txt").write_text("mine")
+    assert main([*DATASET, "--out", str(mine), "--overwrite"]) == 0
+    assert not (mine / MARKER).exists()
+    capsys.readouterr()
+    assert main([*DATASET, "--out", str(mine)]) == 2
+    assert "--overwrite" in one_line(capsys) and (mine / "thesis.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("how", ["equals", "holds", "inside"])
+def test_an_output_that_touches_the_input_is_refused(tmp_path, capsys, how):
+    data = tmp_path / "run" / "data"
+    assert main([*DATASET, "--out", str(data)]) == 0
+    out = {"equals": data, "holds": tmp_path / "run", "inside": data / "fit"}[how]
+    capsys.readouterr()
+    assert main(["fit", "--data", str(data), "--out", str(out), "--overwrite", "--iters", "1"]) == 2
+    assert "could destroy what this command reads" in one_line(capsys)
+    assert (data / "train" / "transforms.json").exists() and not (data / "fit").exists()
+
+
+def test_video_into_its_own_checkpoint_is_refused(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "manifest.json").write_text("{}")
+    assert main(["video", "--checkpoint", str(run), "--out", str(run), "--overwrite"]) == 2
+    assert "could destroy" in one_line(capsys) and (run / "manifest.json").read_text() == "{}"
+
+
+def test_files_put_into_a_new_output_while_the_work_runs_are_kept(tmp_path):
+    out = Output(tmp_path / "run", "fit")
+    with pytest.raises(OutputError, match="changed while this command ran"):
+        with out.staged() as tmp:
+            (tmp / "weights.npz").write_text("model")
+            (tmp_path / "run").mkdir()
+            (tmp_path / "run" / "notes.txt").write_text("mine")        # the user, while it trained
+    assert (tmp_path / "run" / "notes.txt").read_text() == "mine" and (tmp_path / "run-2" / "weights.npz").exists()
+    assert leftovers(tmp_path) == []
+
+
+def test_a_second_command_for_the_same_output_is_refused_at_once(tmp_path, capsys):
+    first = Output(tmp_path / "new", "fit")
+    assert main([*DATASET, "--out", str(tmp_path / "new")]) == 2
+    assert "another mitnerf command is writing" in one_line(capsys)
+    first.release()
+    assert main([*DATASET, "--out", str(tmp_path / "new")]) == 0
+
+
+def test_system_errors_are_one_line_before_the_work(tmp_path, capsys):
+    (tmp_path / "FILE").write_text("x")
+    for out, words in [(tmp_path / "FILE" / "sub", "is a file"), (tmp_path / ("n" * 300), "bytes, more than"),
+                       (tmp_path / "a" / ("m" * 256) / "b", "bytes, more than")]:
+        assert main([*DATASET, "--out", str(out)]) == 2
+        assert words in one_line(capsys)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["FILE"]
+
+
+def test_a_full_disk_while_writing_is_one_line_and_leaves_nothing(tmp_path, capsys):
+    from faults.inject import Plan, run_with
+
+    (tmp_path / "out").mkdir()
+    assert main([*DATASET, "--out", str(tmp_path / "first")]) == 0        # the scene's cache entry is built
+    count = Plan("count")
+    assert run_with(count, main, [*DATASET, "--out", str(tmp_path / "whole")]) == (0, None)
+    takes_space = [k for k, event in enumerate(count.seen) if event in ("open", "os.mkdir")]
+    for k in takes_space[::4]:
+        capsys.readouterr()
+        assert run_with(Plan("ENOSPC", k), main, [*DATASET, "--out", str(tmp_path / "out" / f"ds{k}")]) == (2, None)
+        line = one_line(capsys)
+        assert f"ds{k}: No space left on device; free some space" in line, line
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_a_name_that_is_not_utf8_prints(tmp_path):
+    out = os.fsencode(str(tmp_path)) + b"/caf\xe9"
+    r = subprocess.run([sys.executable, "-m", "mitnerf", *DATASET, "--out", out], capture_output=True, cwd=ROOT,
+                       env={**os.environ, "LC_ALL": "C.UTF-8", "PYTHONIOENCODING": "utf-8"})
+    assert r.returncode == 0, r.stderr
+    assert b"caf\\udce9" in r.stdout or b"caf\\xe9" in r.stdout
+
+
+@pytest.mark.parametrize("signum,status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_an_interrupted_dataset_says_so_in_one_line_and_leaves_nothing(tmp_path, signum, status):
+    cmd = [sys.executable, "-m", "mitnerf", "dataset", "--scene", "vase", "--views", "200", "--resolution", "64",
+           "--out", str(tmp_path / "ds")]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    for _ in range(600):                                   # until it renders
+        if any(".mitnerf-tmp-" in n for n in os.listdir(tmp_path)):
+            break
+        time.sleep(0.05)
+    p.send_signal(signum)
+    out, err = p.communicate(timeout=120)
+    lines = [x for x in err.splitlines() if x.startswith("mitnerf")]
+    assert p.returncode == status and len(lines) == 1 and "interrupted" in lines[0], err
+    assert "Traceback" not in err and os.listdir(tmp_path) == []
+
+
+def test_resume_after_the_dataset_moved_names_data(tmp_path, capsys):
+    assert main([*DATASET, "--out", str(tmp_path / "ds")]) == 0
+    assert main(["fit", "--data", str(tmp_path / "ds"), "--iters", "3", "--no-figures",
+                 "--out", str(tmp_path / "run")]) == 0
+    os.rename(tmp_path / "ds", tmp_path / "moved")
+    capsys.readouterr()
+    assert main(["fit", "--resume", str(tmp_path / "run")]) == 2
+    assert "pass --data with where it is now" in one_line(capsys)

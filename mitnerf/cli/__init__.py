@@ -1,16 +1,19 @@
 """``mitnerf`` / ``python -m mitnerf``: one sub-command per job, each a thin module.
 
-Every bad input ends in one line on stderr (``mitnerf: error: ...``, naming the problem and the fix) and exit
-status 2, with nothing written. A training run that stops (NaN, collapse) exits 1; an interrupted one, after writing
-its checkpoint, 130 (SIGINT) or 143 (SIGTERM)."""
+Every bad input and every file-system failure (a full disk, a read-only folder) ends in one line on stderr
+(``mitnerf: error: ...``, naming the problem and the fix) and exit status 2, with nothing written. A training run
+that stops (NaN, collapse) exits 1. Ctrl-C or SIGTERM ends any command with one line, its temporary files removed,
+and exit status 130 (SIGINT) or 143 (SIGTERM); ``fit`` first writes its checkpoint and says how to resume."""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
 
 from .._variant import set_variant
-from ..errors import ConfigError, MitnerfError
+from ..errors import ConfigError, MitnerfError, Terminated, os_error_line
 from . import data_cmds, experiment_cmd, fit_cmd, video_cmd
 
 
@@ -34,14 +37,41 @@ def build_parser() -> Parser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+@contextlib.contextmanager
+def _signals_raise():
+    def terminate(signum, frame):
+        raise Terminated()
     try:
-        args = build_parser().parse_args(argv)
-        set_variant()
-        return int(args.run(args) or 0)
+        old = signal.signal(signal.SIGTERM, terminate)
+    except ValueError:                  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def main(argv: list[str] | None = None) -> int:
+    for stream in (sys.stdout, sys.stderr):         # a folder name that is not UTF-8 still prints
+        with contextlib.suppress(AttributeError, ValueError):
+            stream.reconfigure(errors="backslashreplace")
+    try:
+        with _signals_raise():
+            args = build_parser().parse_args(argv)
+            set_variant()
+            return int(args.run(args) or 0)
     except MitnerfError as exc:
         print(f"mitnerf: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"mitnerf: error: {os_error_line(exc)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as exc:
+        sig = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
+        print(f"mitnerf: interrupted ({sig}); temporary files removed, earlier outputs untouched"
+              f"{getattr(exc, 'note', '')}", file=sys.stderr)
+        return 143 if sig == "SIGTERM" else 130
 
 
 def example_main(name: str, doc: str, argv=None) -> int:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
-from .._io import Output, atomic_write_bytes
-from ..data.formats import WRITERS, check_output, load_dataset, tiny_nerf_bytes
+from .._io import Output, write_new_file
+from ..data.cameras import check_pixel_memory
+from ..data.formats import DATASET_BYTES_PER_PIXEL, WRITERS, check_output, load_dataset, tiny_nerf_bytes
 from ..data.generate import make_dataset
 from ..data.rig import RigConfig, noise_preset
 from ..errors import ConfigError
@@ -54,7 +56,9 @@ def register(sub) -> None:
 
     s = sub.add_parser("show", help="write the views strip, depth strip and rig plot of a dataset")
     s.add_argument("dataset", help="dataset folder (or tiny-NeRF .npz)")
-    s.add_argument("--out", help="where to write the PNGs (default: DATASET/figures)")
+    s.add_argument("--out", help="where to write the PNGs (default: out/show/<the dataset's name>)")
+    s.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files "
+                   "(they are left alone)")
     s.set_defaults(run=run_show)
 
 
@@ -72,24 +76,28 @@ def run_dataset(args) -> int:
     rig = RigConfig(dim=dim, n_train=args.views, n_val=args.val, n_test=args.test, radius=args.radius,
                     resolution=args.resolution, fov=args.fov, layout=args.layout, seed=args.seed, **noise)
     rig.validate()
-    target = check_output(args.out, fmt, args.overwrite)          # refused before rendering
+    pixels = (args.views + args.val + args.test) * args.resolution ** (dim - 1)
+    check_pixel_memory(args.views + args.val + args.test, args.resolution, args.resolution if dim == 3 else 1)
+    inputs = [args.polygon, args.scene if args.scene and Path(args.scene).exists() else None]
+    target = check_output(args.out, fmt, args.overwrite, inputs, size=pixels * DATASET_BYTES_PER_PIXEL)
     ds = make_dataset(scene, rig, RenderSettings(spp=spp, seed=args.seed, integrator=integrator))
     if target is None:
-        atomic_write_bytes(Path(args.out), tiny_nerf_bytes(ds))
+        write_new_file(args.out, tiny_nerf_bytes(ds))
+        where = args.out
     else:
         with target.staged() as tmp:
             WRITERS[fmt](ds, tmp)
+        where = target.path
     counts = ", ".join(f"{k} {len(v)}" for k, v in ds.splits.items())
-    print(f"wrote {args.out} ({scene.name}, {ds.dim}D, {counts}; near {ds.near:.3f}, far {ds.far:.3f})")
+    print(f"wrote {where} ({scene.name}, {ds.dim}D, {counts}; near {ds.near:.3f}, far {ds.far:.3f})")
     return 0
 
 
 def run_show(args) -> int:
     ds = load_dataset(args.dataset)
-    src = Path(args.dataset)
-    out = Path(args.out) if args.out else (src / "figures" if src.is_dir() else src.with_suffix("") / "figures")
-    paths = []
-    with Output(out, "figures").staged() as tmp:
+    out = Path(args.out) if args.out else Path("out", "show", Path(os.path.abspath(args.dataset)).stem)
+    target, paths = Output(out, "figures", args.overwrite, inputs=[args.dataset]), []
+    with target.staged() as tmp:
         for name, split in ds.splits.items():
             paths += split_figures(split, name, tmp, ds.background, ds.near, ds.far)
         cams = {k: v.cameras for k, v in ds.splits.items()}
@@ -98,5 +106,5 @@ def run_show(args) -> int:
         else:
             paths.append(plot_rig_3d(cams, ds.meta.get("mesh"), tmp / "rig.png", ds.meta.get("texture")))
     for p in paths:
-        print(out / Path(p).name)
+        print(target.path / Path(p).name)
     return 0

@@ -78,7 +78,8 @@ def run_experiment(args) -> int:
     if args.name == "all" and args.sets:
         raise ConfigError("--set applies to one experiment; run `mitnerf experiment NAME --set ...` instead of all")
     cfgs = {n: configure(EXPERIMENTS[n], args.quick, args.seed, args.sets) for n in names}
-    out = Output(Path(args.out), f"experiment {args.name}", args.overwrite).claim()
+    target = Output(Path(args.out), f"experiment {args.name}", args.overwrite, incremental=True)
+    out = target.claim()
     sets = [shlex.quote(f"{k}={v if isinstance(v, str) else json.dumps(v)}") for k, v in args.sets]
     command = " ".join(["mitnerf experiment", args.name, "--out", shlex.quote(args.out)]
                        + (["--seed", str(args.seed)] if args.seed else []) + [f"--set {s}" for s in sets])
@@ -92,6 +93,7 @@ def run_experiment(args) -> int:
         print(f"wrote {where / 'report.md' if (where / 'report.md').exists() else where}", flush=True)
     if args.name == "all":
         print(f"wrote {write(load_results(), out, command)}")
+    target.release()
     return 0
 
 
@@ -105,8 +107,14 @@ def run_sweep(args) -> int:
     if cfg.executor == "dask" and not cfg.scheduler:
         raise ConfigError("--executor dask needs --scheduler ADDRESS (start one with 'dask scheduler')")
     build_rows(cfg)                                          # refuses unknown scenes before anything is written
-    out = Output(Path(args.out), "sweep", args.overwrite).claim()
-    rows = sweep_rows(cfg, out)
+    target = Output(Path(args.out), "sweep", args.overwrite, incremental=True)
+    out = target.claim()
+    try:
+        rows = sweep_rows(cfg, out)
+    except KeyboardInterrupt as exc:
+        exc.note = f"; the finished rows are in {out}: run the same command to continue"
+        raise
+    target.release()
     failed = sum(r["status"] != "ok" for r in rows)
     print(f"{len(rows)} runs ({failed} failed); wrote {out / 'sweep.csv'}, {out / 'sweep.md'}, {out / 'pareto.png'}")
     return 0

@@ -6,17 +6,18 @@ lists the recipes, their settings, and the figures measured for them."""
 
 from __future__ import annotations
 
+import os
 import signal
 from pathlib import Path
 
 from .._io import Output
 from ..data.formats import load_dataset
-from ..errors import ConfigError
+from ..errors import ConfigError, Terminated
 from ..results import load_results
 from ..train.auto import AutoConfig, choose_recipe
-from ..train.checkpoint import load_checkpoint
+from ..train.checkpoint import checkpoint_bytes, load_checkpoint
 from ..train.fit import check_dataset, fit
-from ..train.loop import Interrupted, TrainingFailed
+from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
 from .args import add_recipe_flags, overrides, recipe_from_args
@@ -49,16 +50,20 @@ def run_fit(args) -> int:
         data = args.data or prior.dataset_meta.get("path")
         if not data:
             raise ConfigError(f"{args.resume} does not record its dataset; pass --data DIR")
+        if not args.data and not os.path.lexists(data):
+            raise ConfigError(f"the dataset {args.resume} was trained on is no longer at {data}; pass --data with "
+                              "where it is now")
         recipe, backend, out_path = prior.recipe, prior.backend.name, Path(args.resume)
         dataset = load_dataset(data)
     else:
         if not args.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
-        dataset = load_dataset(args.data)
+        data, dataset = args.data, load_dataset(args.data)
         recipe = recipe_from_args(args, dataset.dim)
         backend, out_path = args.backend or "drjit", Path(args.out) if args.out else None
     check_dataset(dataset, need_test=True)
-    out = Output(out_path, "fit", args.overwrite) if out_path else None      # refused before training
+    out = Output(out_path, "fit", args.overwrite, inputs=[data],
+                 size=checkpoint_bytes(recipe, dataset.dim)) if out_path else None      # refused before training
     if args.auto:
         if args.recipe:
             raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")
@@ -72,13 +77,14 @@ def run_fit(args) -> int:
 
 def train_and_report(dataset, recipe, backend: str, out: Output | None, resume=None, figures: bool = True) -> int:
     """Fit, evaluate and write; turn a stopped or interrupted run into its message and exit status."""
+    run = None
     try:
         run = fit(dataset, recipe, backend, resume=resume)
+        record = run.record(dataset)
     except Interrupted as exc:
         where = "nothing was written (pass --out to keep checkpoints)"
         if out is not None:
-            with out.staged() as tmp:
-                write_fit(exc.run, tmp)
+            save(out, exc.run)
             where = f"wrote {out.path}; resume with `mitnerf fit --resume {out.path}`"
         print(f"mitnerf: interrupted ({exc}) at step {exc.run.state.step}; {where}")
         return 128 + int(exc.signum) if exc.signum in (signal.SIGINT, signal.SIGTERM) else 1
@@ -86,19 +92,31 @@ def train_and_report(dataset, recipe, backend: str, out: Output | None, resume=N
         rec = exc.run.record(dataset, geometry_metrics=False)
         rec.status, rec.reason = exc.status, str(exc)
         if out is not None:
-            with out.staged() as tmp:
-                write_fit(exc.run, tmp, rec, None)
+            save(out, exc.run, rec)
         print(f"mitnerf: training stopped: {exc}" + (f"; wrote {out.path}" if out is not None else ""))
         return 1
-    record = run.record(dataset)
+    except KeyboardInterrupt as exc:            # while evaluating: the training is done, keep it
+        if run is not None and out is not None:
+            save(out, run)
+            exc.note = f"; the trained model is in {out.path}: evaluate it with `mitnerf fit --resume {out.path}`"
+        raise
     for note in run.notes:
         print(note)
     if out is not None:
-        with out.staged() as tmp:
-            write_fit(run, tmp, record, dataset if figures else None)
+        signals = save(out, run, record, dataset if figures else None)
         print(f"wrote {out.path}")
+        if signals:
+            raise (Terminated if signals[0] == signal.SIGTERM else KeyboardInterrupt)()
     print(record.line() + f" ({backend})")
     return 0 if record.status == "ok" else 1
+
+
+def save(out: Output, run, record=None, dataset=None) -> list:
+    """Write the run; Ctrl-C or SIGTERM while it writes waits until it is written (the signals are returned)."""
+    with deferred_signals() as signals:
+        with out.staged() as tmp:
+            write_fit(run, tmp, record, dataset)
+    return signals
 
 
 def run_recipes(args) -> int:

@@ -68,8 +68,8 @@ def run(args) -> int:
     cfg = OrbitConfig(n_frames=args.frames, resolution=args.resolution, elevation=args.elevation,
                       radius=args.radius, fov=args.fov, fps=args.fps)
     cfg.validate()
+    target = Output(args.out, "video", args.overwrite, inputs=[args.checkpoint])
     model, _ = load_checkpoint(args.checkpoint, args.backend, dim=3, need="`mitnerf video` (a 360 degree orbit)")
-    target = Output(args.out, "video", args.overwrite)
     with target.staged() as tmp:
         video = orbit_video(model.backend, cfg, tmp, tuple(model.recipe.model.render.background))
         if args.mesh:

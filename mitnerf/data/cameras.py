@@ -26,6 +26,17 @@ PIXEL_BYTES = 32
 """The least memory a pixel of a set of views costs once rendered (colour, alpha, depth, mask)."""
 
 
+def check_pixel_memory(n: int, H: int, W: int) -> None:
+    """Refuse up front ``n`` views of ``H x W`` whose pixels cannot fit in memory (``--views`` or ``--frames`` x
+    ``--resolution``)."""
+    need = n * H * W * PIXEL_BYTES
+    avail = available_memory() if need >= 1 << 30 else None
+    if avail is not None and need > avail:
+        raise ConfigError(f"{n:,} views of {W} x {H} pixels ({n * H * W:,} pixels) need at least "
+                          f"{need / 2**30:.1f} GiB; this machine has {avail / 2**30:.1f} GiB available: use fewer "
+                          "views (or frames) or a lower resolution")
+
+
 @dataclass
 class Cameras:
     """A set of pinhole cameras sharing one focal length and resolution."""
@@ -52,14 +63,7 @@ class Cameras:
             raise MitnerfError(f"resolution must be at least 1 pixel, got {self.height}x{self.width}")
         if self.dim == 2 and self.width != 1:
             raise MitnerfError("2D cameras see 1D images: width must be 1")
-        # refuse up front views whose pixels cannot fit in memory (--views or --frames x --resolution)
-        n, H, W = len(self.poses), self.height, self.width
-        need = n * H * W * PIXEL_BYTES
-        avail = available_memory() if need >= 1 << 30 else None
-        if avail is not None and need > avail:
-            raise ConfigError(f"{n:,} views of {W} x {H} pixels ({n * H * W:,} pixels) need at least "
-                              f"{need / 2**30:.1f} GiB; this machine has {avail / 2**30:.1f} GiB available: use fewer "
-                              "views (or frames) or a lower resolution")
+        check_pixel_memory(len(self.poses), self.height, self.width)
 
     @property
     def dim(self) -> int:

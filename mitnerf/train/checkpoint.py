@@ -23,6 +23,7 @@ import numpy as np
 
 from .._io import atomic_write_text
 from ..errors import CheckpointError, MitnerfError
+from .auto import final_params
 from .engines import make_backend
 from .fit import Run
 from .loop import LoopState, new_history
@@ -63,6 +64,17 @@ def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -
     atomic_write_text(folder / "history.json", json.dumps(run.state.history, default=float))
     atomic_write_text(folder / "manifest.json", json.dumps(manifest, indent=1, default=str))
     return folder
+
+
+def checkpoint_bytes(recipe: Recipe, dim: int) -> int:
+    """About what ``mitnerf fit --out`` writes for ``recipe``: the weights, Adam's two moments and the best
+    weights (float32), and room for the figures."""
+    m = recipe.model
+    try:
+        params = final_params(m.field, m.field_args, dim)
+    except (MitnerfError, TypeError):           # a field sized by its data (pixelNeRF): the figures only
+        params = 0
+    return 16 * params + (32 << 20)
 
 
 def read_manifest(path: str | Path) -> dict:

@@ -20,11 +20,11 @@ from .strategies import (
 
 def fit_or_show(data, ds: Path, t: Path, need_test: bool = False):
     """The command that reads the dataset: ``fit`` (always, when the damage is a missing test
-    split, which ``show`` accepts) or ``show`` (which writes into the dataset folder)."""
+    split, which ``show`` accepts) or ``show``."""
     out = t / "out"
     if need_test or data.draw(st.integers(0, 3), label="command") > 0:
         return ["fit", "--data", ds, "--iters", "1", "--out", out], out
-    return ["show", ds], ds / "figures"
+    return ["show", ds, "--out", out], out
 
 
 def check_reader(category: str, data, src: Path, damage, need_test: bool = False):

@@ -5,11 +5,12 @@
 from __future__ import annotations
 
 import io
+import os
 from pathlib import Path
 
 import numpy as np
 
-from ..._io import Output, atomic_write_bytes
+from ..._io import Output, check_place, tidy, write_new_file
 from ...errors import DataError, OutputError
 from ..cameras import Cameras
 from ..dataset import SPLITS, Dataset, Split
@@ -49,13 +50,22 @@ def load_dataset(path: str | Path) -> Dataset:
     return ds
 
 
-def check_output(out: str | Path, fmt: str, overwrite: bool = False) -> Output | None:
-    """Apply the output rules to ``out`` now, before any work (a file is never replaced)."""
+DATASET_BYTES_PER_PIXEL = 32
+"""The most a written pixel costs: 8-bit RGBA, depth, exact linear colour and alpha as float32, a mask."""
+
+
+def check_output(out: str | Path, fmt: str, overwrite: bool = False, inputs=(), size: int = 0) -> Output | None:
+    """Apply the output rules to ``out`` now, before any work (a file is never replaced): the folder's
+    :class:`~mitnerf._io.Output`, or None for a one-file format."""
     if fmt not in FORMATS:
         raise DataError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
-    if fmt == "tiny_nerf" and (Path(out).exists() or Path(out).is_symlink()):
-        raise OutputError(f"{out} exists; mitnerf never replaces a file: choose another file name")
-    return None if fmt == "tiny_nerf" else Output(out, "dataset", overwrite)
+    if fmt == "tiny_nerf":
+        if os.path.lexists(out):
+            tidy(out)
+            raise OutputError(f"{out} exists; mitnerf never replaces a file: choose another file name")
+        check_place(Path(os.path.abspath(out)), size)
+        return None
+    return Output(out, "dataset", overwrite, inputs=inputs, size=size)
 
 
 def save_dataset(dataset: Dataset, out: str | Path, fmt: str | None = None, overwrite: bool = False) -> Path:
@@ -64,10 +74,10 @@ def save_dataset(dataset: Dataset, out: str | Path, fmt: str | None = None, over
     fmt = fmt or ("nerf2d" if dataset.dim == 2 else "blender")
     target = check_output(out, fmt, overwrite)
     if target is None:
-        return atomic_write_bytes(Path(out), tiny_nerf_bytes(dataset))
+        return write_new_file(out, tiny_nerf_bytes(dataset))
     with target.staged() as tmp:
         WRITERS[fmt](dataset, tmp)
-    return out
+    return target.path
 
 
 def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dataset:
