@@ -29,7 +29,7 @@ def warm_kernels(ds, recipe) -> None:
     from mitnerf.train.fit import fit
     from mitnerf.train.loop import TrainingFailed
 
-    last = getattr(recipe.model.field_config(ds.dim), "schedule_end", 0)     # 0: no coarse-to-fine schedule
+    last = recipe.model.field_config(ds.dim).schedule_end     # 0: no coarse-to-fine schedule
     try:                                  # trained, not evaluated: only the kernels are wanted
         fit(ds, recipe.at_steps(last + 2, progress=False, val_every=0), "drjit", progress=False)
     except TrainingFailed:                # the timed run meets and records the same failure

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from mitnerf.results import record_result
+from mitnerf.train.config import TrainConfig
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "out" / "datasets" / "bunny"
@@ -49,7 +50,7 @@ def main() -> int:
         print(f"{key}: {last} ({wall:.1f} s wall)\n    {first}")
         record_result(key, values, f"{last} ({wall:.1f} s wall with start-up)", " ".join(
             c if c != sys.executable else "python" for c in cmd).replace(str(ROOT) + "/", ""),
-                      recipe=values["recipe"])
+                      recipe=values["recipe"], threads=TrainConfig().threads)     # the recipes' own
     same = results["demo/bunny"][1].replace("+", "") == results["fit/bunny-cli"][1].replace("+", "")
     gap = abs(results["demo/bunny"][0]["psnr"] - results["fit/bunny-cli"][0]["psnr"])
     print(f"same recipe: {same}; PSNR gap {gap:.2f} dB")

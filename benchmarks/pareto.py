@@ -4,7 +4,7 @@ Runs ``mitnerf sweep`` (:mod:`mitnerf.experiments.sweep`: the vanilla, grid and 
 recipes at two sizes x 32/64/128 samples x 3/10/30 s, the recipes on torch too, plus the
 torch reference, ``vanilla-2d`` on torch for 600 s on bunny), prints each scene's front and
 whether some configuration reaches the reference's test PSNR in 1/100 of its wall time, and
-records that verdict in the results file. ``--scenes bunny`` (about 30 minutes) is enough for
+records that verdict in the results file. ``--scenes bunny`` (the reference scene alone) is enough for
 the verdict; running it again resumes. ``--quick`` is a smoke test.
 
     python benchmarks/pareto.py [--out out/pareto] [--scenes bunny ...] [--quick] [sweep flags]
@@ -28,8 +28,10 @@ def main(argv=None) -> int:
     p.add_argument("--out", default=str(ROOT / "out" / "pareto"))
     p.add_argument("--scenes", nargs="+", default=list(SCENES))
     p.add_argument("--quick", action="store_true")
+    p.add_argument("--threads", type=int, default=2, help="CPU threads of each run")
     args, rest = p.parse_known_args(argv)
-    rc = cli(["sweep", "--out", args.out, "--scenes", *args.scenes, *(["--quick"] if args.quick else []), *rest])
+    rc = cli(["sweep", "--out", args.out, "--scenes", *args.scenes, "--threads", str(args.threads),
+              *(["--quick"] if args.quick else []), *rest])
     if rc:
         return rc
     rows = read_results(Path(args.out) / "sweep.csv")
@@ -42,7 +44,7 @@ def main(argv=None) -> int:
     print("\n" + verdict)
     if not args.quick and "Torch reference" in verdict:
         record_result("sweep/reference", {}, verdict.splitlines()[0] + " " + verdict.splitlines()[-1].strip("- "),
-                      "python benchmarks/pareto.py --scenes " + " ".join(args.scenes))
+                      "python benchmarks/pareto.py --scenes " + " ".join(args.scenes), threads=args.threads)
     return 0
 
 

@@ -13,7 +13,7 @@ importance samples), L = 8 / 5 (the issue's configuration). Measured in one run,
   FLOPs per weight and sample; the native kernel recomputes the forward, which is not
   counted) and as a share of the peak (for the native kernel also the share counting the
   recomputed forward: 8 executed FLOPs per 6 counted);
-* the full step: Dr.Jit in its automatic mode, and the best torch of four: the twin of the
+* the full step: Dr.Jit in the recipes' mode (``native``), and the best torch of four: the twin of the
   same model (mitnerf's torch engine) and a self-contained torch NeRF (``torch_nerf.py``),
   each eager and compiled. Steps alternate between contenders (same machine state); the
   median is reported;
@@ -40,7 +40,7 @@ import numpy as np
 import torch
 
 from _common import alternate, backend, bunny
-from mitnerf.fields.mlp import NeRFConfig, auto_mode, layer_shapes
+from mitnerf.fields.mlp import NeRFConfig, layer_shapes
 from mitnerf.render.pipeline import RenderConfig, split_params
 from mitnerf.results import record_result
 from mitnerf.train.config import ModelConfig, TrainConfig
@@ -49,6 +49,8 @@ from mitnerf.train.recipes import Recipe
 from torch_nerf import make_step
 
 N_SAMPLES = 1024 * (64 + 128)
+OURS = "native"
+"""The Dr.Jit mode whose full step is timed: the vanilla recipes' (``mitnerf.train.recipes``)."""
 NUMPY_PEAK = """
 import time, numpy as np
 a = np.random.default_rng(0).random((2048, 2048), dtype=np.float32); a @ a
@@ -84,7 +86,7 @@ def mlp_flops(cfg: NeRFConfig, n: int) -> float:
     return sum(n * o * i * (4 if name == "trunk.0" else 6) for name, o, i in layer_shapes(cfg))
 
 
-def model(width: int, depth: int, mode: str = "auto") -> ModelConfig:
+def model(width: int, depth: int, mode: str = OURS) -> ModelConfig:
     return ModelConfig("vanilla", dict(width=width, depth=depth, pos_L=8, dir_L=5, mode=mode),
                        RenderConfig(n_coarse=64, n_fine=64))
 
@@ -141,7 +143,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--rounds", type=int, default=5)
     p.add_argument("--psnr-steps", type=int, default=300)
-    p.add_argument("--no-compile", action="store_true", help="leave out torch.compile (it compiles for minutes)")
+    p.add_argument("--no-compile", action="store_true", help="leave out torch.compile (its compilation is slow)")
     args = p.parse_args(argv)
     dr.set_thread_count(2)
     torch.set_num_threads(2)
@@ -163,29 +165,29 @@ def main(argv=None) -> int:
         for name, t in part.items():
             print(f"w{width} x{depth} MLP part {name:>14}: {1e3 * t:7.1f} ms = {flops / t / 1e9:5.0f} GFLOP/s "
                   f"({100 * flops / t / 1e9 / best_peak:3.0f} % of peak)", flush=True)
-        steps = alternate({m: bes[m] for m in [auto_mode(width), "torch twin"]}, args.rounds)
+        steps = alternate({m: bes[m] for m in [OURS, "torch twin"]}, args.rounds)
         for label, compiled in (("plain torch", False), ("plain torch compiled", True)):
             if compiled and args.no_compile:
                 continue
             run = plain_torch(ds, width, depth, compiled)
             steps[label] = statistics.median(timed(run) for _ in range(args.rounds))
-        ours = steps.pop(auto_mode(width))
+        ours = steps.pop(OURS)
         best = min(steps, key=steps.get)
         for name, t in steps.items():
             print(f"w{width} x{depth} step {name:>21}: {1e3 * t:7.1f} ms", flush=True)
-        print(f"w{width} x{depth} step {'drjit ' + auto_mode(width):>21}: {1e3 * ours:7.1f} ms = "
+        print(f"w{width} x{depth} step {'drjit ' + OURS:>21}: {1e3 * ours:7.1f} ms = "
               f"{ours / steps[best]:.2f} x the best torch ({best})", flush=True)
         values[f"w{width}"] = {"mlp_ms": {k: 1e3 * v for k, v in part.items()}, "step_ms": {k: 1e3 * v for k, v in
                                                                                             steps.items()},
                                "drjit_step_ms": 1e3 * ours, "best_torch": best, "ratio": ours / steps[best],
-                               "mlp_share_of_peak": flops / part[auto_mode(width)] / 1e9 / best_peak}
+                               "mlp_share_of_peak": flops / part[OURS] / 1e9 / best_peak}
         # the native kernel recomputes the forward in its backward: it executes 8 of every 6 counted FLOPs
-        executed = (8 / 6 if auto_mode(width) == "native" else 1.0) * values[f"w{width}"]["mlp_share_of_peak"]
+        executed = (8 / 6 if OURS == "native" else 1.0) * values[f"w{width}"]["mlp_share_of_peak"]
         values[f"w{width}"]["mlp_executed_share_of_peak"] = executed
         summary.append(f"w{width} drjit {1e3 * ours:.0f} ms best-torch {1e3 * steps[best]:.0f} ms "
                        f"ratio {ours / steps[best]:.2f}")
         record_result(f"step_time/w{width}", values[f"w{width}"],
-                      f"{depth} x {width} NeRF step: Dr.Jit ({auto_mode(width)}) {1e3 * ours:.0f} ms = "
+                      f"{depth} x {width} NeRF step: Dr.Jit ({OURS}) {1e3 * ours:.0f} ms = "
                       f"{ours / steps[best]:.2f} x the best torch ({best}, {1e3 * steps[best]:.0f} ms); MLP part at "
                       f"{100 * values[f'w{width}']['mlp_share_of_peak']:.0f} % of the {best_peak:.0f} GFLOP/s peak "
                       f"({100 * executed:.0f} % counting the forward it recomputes)",

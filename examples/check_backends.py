@@ -228,6 +228,7 @@ def finite_differences(field: str, dim: int, seed: int = 0, verbose: bool = Fals
 
 
 def main(argv=None) -> int:
+    from mitnerf.fields.native import library
     from mitnerf.render.pipeline import RenderConfig
     from mitnerf.train.config import ModelConfig
 
@@ -254,7 +255,8 @@ def main(argv=None) -> int:
                "depth": rng.normal(size=args.rays).astype(np.float32) * 0.1,
                "opacity": rng.normal(size=args.rays).astype(np.float32)} for g in groups}
 
-    runs = {label: run_drjit(mc, weights, o, d, cot, mode, method, 7) for label, mode, method in VARIANTS[args.field]}
+    runs = {label: run_drjit(mc, weights, o, d, cot, mode, method, 7) for label, mode, method in VARIANTS[args.field]
+            if mode != "native" or library() is not None}           # the native MLP needs a C compiler
     runs["torch"] = run_torch(mc, weights, o, d, cot, 7)
     ok = True
     ref_vals, ref_grads = runs["torch"][0], runs["drjit plain AD"][1]

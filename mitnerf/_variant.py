@@ -1,27 +1,14 @@
-"""Choosing Mitsuba's variant, and the LLVM guard (called by entry points, never on import): Dr.Jit 1.5
-emits ``llvm.maximum``, which LLVM 15 cannot compile (it aborts), so the LLVM backend needs LLVM >= 16."""
+"""Choosing Mitsuba's variant (called by entry points, never on import), with the LLVM guard
+(:func:`mitnerf._drjit_compat.check_llvm`)."""
 
 from __future__ import annotations
 
 import os
 
+from ._drjit_compat import check_llvm
 from .errors import EnvironmentProblem
 
 DEFAULT_VARIANT = "llvm_ad_rgb"
-MIN_LLVM = 16
-
-
-def check_llvm() -> tuple[int, int, int]:
-    """Raise one line that says how to fix it when Dr.Jit's LLVM is missing or older than 16."""
-    import drjit as dr
-
-    version = tuple(dr.detail.llvm_version())
-    if version[0] < MIN_LLVM:
-        found = "no LLVM" if version[0] < 0 else "LLVM %d.%d.%d" % version
-        raise EnvironmentProblem(f"mitnerf needs LLVM >= {MIN_LLVM} for Dr.Jit's LLVM backend but found {found}: "
-                                 "run `apt-get install -y libllvm19` (or `make setup`), or set DRJIT_LIBLLVM_PATH "
-                                 "to a libLLVM.so of version >= 16.")
-    return version
 
 
 def set_variant(name: str | None = None) -> str:

@@ -48,16 +48,20 @@ def machine() -> dict:
 
 
 def machine_line(m: dict) -> str:
-    return f"{m.get('cpu', '?')} ({m.get('simd', '?')}), {m.get('threads', 2)} threads"
+    return f"{m.get('cpu', '?')} ({m.get('simd', '?')}), {m.get('threads', '?')} threads"
 
 
 def record_result(key: str, values: dict, summary: str, command: str, recipe: str | None = None,
-                  path: Path | None = None, **extra) -> dict:
-    """Store one measurement under ``key`` (replacing an older one), atomically."""
+                  path: Path | None = None, threads: int | None = None, **extra) -> dict:
+    """Store one measurement under ``key`` (replacing an older one), atomically; ``threads``: the CPU threads the
+    measured run used (None: the size of Dr.Jit's thread pool now, which a run in this process set)."""
     import fcntl
 
+    from drjit import thread_count
+
+    threads = thread_count() if threads is None else int(threads)
     path = path or results_path()
-    entry = {"summary": summary, "values": values, "command": command, "machine": {**machine(), "threads": 2},
+    entry = {"summary": summary, "values": values, "command": command, "machine": {**machine(), "threads": threads},
              "date": datetime.date.today().isoformat(), **({"recipe": recipe} if recipe else {}), **extra}
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path.with_suffix(".lock"), "w") as lock:

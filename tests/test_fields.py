@@ -78,7 +78,6 @@ def test_bad_checkpoint_shapes_say_so():
                                                            geo_features=3)),
                                          ("hashlinear", dict(resolutions=(5, 9, 17), log2_hashmap_size=6))])
 def test_weight_transfer_round_trip(field, args):
-    from mitnerf.reference.transfer import drjit_to_torch, torch_to_drjit
     from mitnerf.render.pipeline import RenderConfig
     from mitnerf.train.backend_drjit import build_model
     from mitnerf.train.backend_torch import build_torch_model
@@ -87,9 +86,54 @@ def test_weight_transfer_round_trip(field, args):
     mc = ModelConfig(field, args, RenderConfig(n_coarse=8, n_fine=4))
     model, twin = build_model(mc, 2, 1.5), build_torch_model(mc, 2, 1.5)
     params = model.init_params(3)
-    drjit_to_torch(model, params, twin)
-    back = model.to_numpy(torch_to_drjit(twin, model))
+    twin.load_numpy(model.to_numpy(params))                  # through the canonical numpy form, both ways
+    back = model.to_numpy(model.from_numpy(twin.to_numpy()))
     ref = model.to_numpy(params)
     assert back.keys() == ref.keys()
     for k in ref:
         np.testing.assert_array_equal(back[k], ref[k])
+
+
+# (traceable, skips_color, freezable) of each family as built; Field's defaults are (False, False, True)
+CAPABILITIES = [("grid", {}, (True, True, True)), ("hashlinear", {}, (True, True, True)),
+                ("vanilla", dict(mode="tensor"), (False, False, True)),
+                ("vanilla", dict(mode="coopvec"), (True, False, True)),
+                ("vanilla", dict(mode="native"), (False, False, False)),      # a C call cannot be recorded
+                ("hashgrid", {}, (False, False, True)), ("hashgrid", dict(mode="coopvec"), (True, False, True)),
+                ("pixelnerf", {}, (False, False, True))]
+
+
+@pytest.mark.parametrize("family, args, want", CAPABILITIES)
+def test_every_family_honours_the_field_contract(family, args, want):
+    from mitnerf.fields import FIELDS, make_field
+    from mitnerf.fields.base import Field, FieldConfig
+    from mitnerf.reference.fields import TORCH_FIELDS
+    from mitnerf.reference.fields.mlp import TwinField
+
+    config, cls = FIELDS[family]
+    assert issubclass(cls, Field) and issubclass(config, FieldConfig) and not cls.__abstractmethods__
+    f = make_field(family, **args, bound=1.25)
+    got = (f.traceable, f.skips_color, f.freezable)
+    assert all(type(v) is bool for v in got) and got == want
+    assert f.bound == 1.25 and f.dim == 2                    # what a renderer reads, not f.cfg
+    assert type(f.cfg.final()) is config and type(f.cfg.schedule_end) is int
+    assert family not in TORCH_FIELDS or issubclass(TORCH_FIELDS[family], TwinField)
+
+
+def test_every_family_is_listed_in_the_contract_test():
+    from mitnerf.fields import FIELDS
+
+    assert {family for family, _, _ in CAPABILITIES} == set(FIELDS)
+
+
+def test_the_native_mode_without_a_compiler_says_how_to_fix_it(monkeypatch):
+    import mitnerf.fields.mlp as mlp
+    from mitnerf.errors import EnvironmentProblem
+
+    monkeypatch.setattr(mlp, "library", lambda: None)
+    f = NeRFField(NeRFConfig(mode="native"))
+    assert set(f.init_numpy(0)) >= {"trunk.0.weight", "sigma.bias"}      # the torch engine starts from these
+    with pytest.raises(EnvironmentProblem, match="--set mode=tensor"):
+        f.init_params(0)                                                 # Dr.Jit storage for the kernel
+    with pytest.raises(ValueError, match="mode must be one of native, coopvec, tensor"):
+        NeRFConfig(mode="auto")                                  # no mode chosen by machine

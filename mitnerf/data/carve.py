@@ -22,7 +22,7 @@ from .cameras import Cameras
 CHUNK = 1 << 21
 """Point-in-view tests at a time (bounds memory: about 90 bytes each)."""
 MAX_TESTS = 200_000_000
-"""Point-in-view tests above which fewer views, then fewer samples, carve (about a minute on 2 cores)."""
+"""Point-in-view tests above which fewer views, then fewer samples, carve (a bound on memory and time)."""
 
 
 def pixel_of(cameras: Cameras, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -70,7 +70,7 @@ def solid_extent(cameras: Cameras, origins: np.ndarray, directions: np.ndarray, 
     D = depth.reshape(-1)[rays].astype(np.float32)
     extent = np.full(len(rays), reach, np.float32)
     open_ = np.ones(len(rays), bool)                   # no carved point found yet
-    big = len(rays) * samples * len(judges) > MAX_TESTS // 4      # a progress bar past about 15 s
+    big = len(rays) * samples * len(judges) > MAX_TESTS // 4      # a progress bar past a quarter of the bound
     for k in tqdm(range(1, samples + 1), desc="carving", unit="sample", disable=not big, leave=False):
         idx = np.flatnonzero(open_)
         if not len(idx):

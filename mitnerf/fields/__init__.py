@@ -2,7 +2,7 @@
 
 ``FIELDS`` maps a family name to ``(config class, Dr.Jit field class)``; the PyTorch
 twins are registered in ``mitnerf.reference.fields``. Every field follows the
-protocol in :mod:`mitnerf.fields.base`.
+contract :class:`mitnerf.fields.base.Field`.
 """
 
 from __future__ import annotations

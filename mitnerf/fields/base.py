@@ -1,29 +1,19 @@
-"""What every field offers the renderer, and the activations they share.
+"""The contract between a field and the renderer and engines (:class:`Field`), and the activations fields share.
 
-A field is *structure*; its trainable *storage* is a ``params`` dict of Dr.Jit arrays
-held by the caller (an optimizer), as in ``drjit.nn``. Every field implements::
-
-    init_numpy(seed) -> arrays           # initial weights, canonical numpy (both engines start here)
-    init_params(seed) -> params          # new storage: from_numpy(init_numpy(seed))
-    density(params, x) -> sigma          # x: D arrays [n] (world units) -> Float [n]
-    query(params, x, d) -> (sigma, rgb)  # d: unit view directions -> Float [n], 3 x Float [n]
-    to_numpy(params) / from_numpy(arrays)   # canonical weights (checkpoints, the torch twin)
-
-A field with ``skips_color = True`` takes ``query(params, x, d, keep=None)``: ``keep`` maps the density to the
-samples whose colour the integral uses (a Bool array), and the field may skip the colour's work elsewhere (and
-return anything there), as the dense grid does.
-
-``traceable`` says whether ``query`` can run inside a symbolic loop (one ray step at a
-time, as the fused volume integral does); fields built on tensor matrix products
-cannot, and are evaluated on all samples at once instead.
+A field is *structure*; its trainable *storage* is a ``params`` dict of Dr.Jit arrays held by the caller (an
+optimizer), as in ``drjit.nn``. Its canonical weights are numpy arrays (checkpoints, the torch twins). Its
+capabilities are class or instance attributes of :class:`Field` with stated defaults; nothing probes for them.
 """
 
 from __future__ import annotations
 
+import abc
 import dataclasses
+from dataclasses import dataclass
 
 import drjit as dr
-from drjit.auto.ad import Float
+import numpy as np
+from drjit.auto.ad import Float, UInt32
 
 from ..errors import ConfigError, check_number
 
@@ -35,14 +25,63 @@ _DENSITY = {
 DENSITY_ACTIVATIONS = tuple(_DENSITY)
 
 
-class Field:
-    """The parts of the protocol above that every field shares."""
+@dataclass
+class FieldConfig:
+    """The settings every field has (checked by :func:`check_config`; a family's config adds its own), and the
+    end of a coarse-to-fine schedule (none by default)."""
+
+    dim: int = 2
+    """2 or 3: the data's dimension."""
+    density_activation: str = "softplus"
+    """Raw output -> density: ``softplus`` (mip-NeRF), ``relu`` (NeRF) or ``trunc_exp`` (instant-ngp)."""
+    bound: float = 1.5
+    """Half-extent of the region the field covers, ``[-bound, bound]^D`` in world units (set from the data)."""
+
+    def final(self):            # this config at the end of its coarse-to-fine schedule (what its size is judged by)
+        return self
+
+    @property
+    def schedule_end(self) -> int:              # the step of its last coarse-to-fine change (0: none)
+        return 0
+
+
+class Field(abc.ABC):
+    """A function from positions ``x`` (D arrays ``[n]``, world units) and unit view directions ``d`` (D arrays
+    ``[n]``) to density ``[n]`` and colour (3 arrays ``[n]``), with its storage held outside."""
+
+    traceable: bool = False
+    """``query`` can run inside a symbolic loop, one ray step at a time (the fused volume integral); otherwise
+    the renderer evaluates it on all samples at once (fields built on tensor matrix products)."""
+    skips_color: bool = False
+    """``query`` honours ``keep`` (the renderer passes it only then): where ``keep(sigma)`` is False the colour
+    is not used, and the field may skip its work there and return anything."""
+    freezable: bool = True
+    """A training step through the field can be recorded with ``dr.freeze``."""
 
     def __init__(self, cfg):
-        self.cfg, self.dim = cfg, cfg.dim
+        self.cfg, self.dim, self.bound = cfg, cfg.dim, float(cfg.bound)    # bound: the half-extent it covers
+
+    @abc.abstractmethod
+    def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]: ...     # canonical; both engines start here
+    @abc.abstractmethod
+    def from_numpy(self, arrays: dict[str, np.ndarray]) -> dict: ...      # storage; refuses another configuration's
+    @abc.abstractmethod
+    def to_numpy(self, params: dict) -> dict[str, np.ndarray]: ...
+    @abc.abstractmethod
+    def density(self, params: dict, x: list) -> Float: ...                 # x: D x [n] -> sigma [n]
+    @abc.abstractmethod
+    def query(self, params: dict, x: list, d: list, keep=None) -> tuple[Float, list]: ...  # -> sigma, 3 x [n]
 
     def init_params(self, seed: int = 0) -> dict:
         return self.from_numpy(self.init_numpy(seed))
+
+    def schedule(self, step: int, params: dict) -> dict | None:
+        """New storage when the training schedule changes the field at ``step`` (a grid's resize), else None."""
+        return None
+
+    def regularizer(self, params: dict, seed: UInt32) -> Float | None:
+        """A loss term on the storage (e.g. total variation), or None."""
+        return None
 
 
 def check_types(cfg) -> None:

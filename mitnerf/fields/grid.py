@@ -21,7 +21,7 @@ from drjit.auto.ad import ArrayXf, Float, UInt32
 
 from ..errors import ConfigError, check_number
 from ..rng import hash_u32
-from .base import Field, cell_corners, check_config, density_activation, sigmoid
+from .base import Field, FieldConfig, cell_corners, check_config, density_activation, sigmoid
 
 
 MAX_SH_DEGREE = {2: 8, 3: 2}
@@ -29,9 +29,18 @@ MAX_SH_DEGREE = {2: 8, 3: 2}
 ``2 degree + 1``."""
 
 
-class GridSettings:
-    """What the dense grid's config and the configs built like it (:mod:`.hashlinear`) share: the count of view
-    harmonics, and the checks of the density scale, the total-variation weights and the harmonics' degree."""
+@dataclass
+class GridSettings(FieldConfig):
+    """What the dense grid's config and the configs built like it (:mod:`.hashlinear`) share: settings, the count of
+    view harmonics, and the checks of the density scale, the total-variation weights and the harmonics' degree."""
+
+    sh_degree: int = 1
+    """Degree of the view-direction expansion when ``view_dependent``: up to 8 in 2D, 2 in 3D."""
+    density_init: float = -1.0
+    """Initial raw density everywhere (softplus(-1) = 0.31: slightly transparent)."""
+    density_scale: float = 10.0
+    """Raw values are multiplied by this before the activation: a larger effective learning
+    rate for density, which has to go from transparent to opaque."""
 
     def check_settings(self) -> None:
         """Refuse a density scale, a total-variation weight or a harmonics degree out of range (after
@@ -55,8 +64,6 @@ class GridSettings:
 class GridConfig(GridSettings):
     """A dense grid of density and colour."""
 
-    dim: int = 2
-    """2 (an image of the plane) or 3 (a voxel grid)."""
     resolution: int = 256
     """Vertices per axis at the end of training."""
     initial_resolution: int | None = None
@@ -65,23 +72,12 @@ class GridConfig(GridSettings):
     """Training steps at which the resolution doubles (capped at ``resolution``)."""
     view_dependent: bool = False
     """View-dependent colour: harmonics of the view direction up to ``sh_degree`` per vertex."""
-    sh_degree: int = 1
-    """Degree of the view-direction expansion when ``view_dependent``: up to 8 in 2D, 2 in 3D."""
-    density_activation: str = "softplus"
-    """``softplus``, ``relu`` or ``trunc_exp``, applied after interpolation."""
-    density_init: float = -1.0
-    """Initial raw density everywhere (softplus(-1) = 0.31: slightly transparent)."""
-    density_scale: float = 10.0
-    """Raw values are multiplied by this before the activation: a larger effective learning
-    rate for density, which has to go from transparent to opaque."""
     tv_weight: float = 1e-3
     """Total-variation weight on the density grid (0: none)."""
     tv_color_weight: float = 0.0
     """Total-variation weight on the colour grid."""
     tv_samples: int = 65536
     """Vertices per step for the total variation, consecutive from a random start (0: the whole grid)."""
-    bound: float = 1.5
-    """Half-extent of the grid in world units."""
 
     def __post_init__(self):
         if self.initial_resolution is None:
@@ -92,12 +88,10 @@ class GridConfig(GridSettings):
         self.check_settings()
 
     def final(self) -> "GridConfig":
-        """This config at the end of its coarse-to-fine schedule (what its size is judged by)."""
         return dataclasses.replace(self, initial_resolution=self.resolution)
 
     @property
     def schedule_end(self) -> int:
-        """The step of its last coarse-to-fine change (0: none)."""
         return max(self.upsample_at, default=0)
 
     def resolution_at(self, step: int) -> int:
@@ -159,11 +153,23 @@ def harmonic_rgb(raw: list, d: list, K: int, degree: int) -> list:
     return [sigmoid(r) for r in raw]
 
 
-class GridField(Field):
-    """See the module docstring."""
+class LatticeField(Field):
+    """Raw values interpolated on lattices, then activated (the dense grid, :mod:`.hashlinear`): every read is a
+    gather, and the colour only where the integral keeps it. A subclass gives ``_sigma(params, x) -> (sigma,
+    corners)`` and ``raw_color(params, corners, active) -> 3 K arrays`` (nothing read where ``active`` is False)."""
 
-    traceable = True
-    skips_color = True
+    traceable = skips_color = True
+
+    def density(self, params, x) -> Float:
+        return self._sigma(params, x)[0]
+
+    def query(self, params, x, d, keep=None):
+        sigma, corners = self._sigma(params, x)
+        raw = self.raw_color(params, corners, True if keep is None else keep(sigma))
+        return sigma, harmonic_rgb(raw, d, self.cfg.color_coeffs, self.cfg.sh_degree)
+
+
+class GridField(LatticeField):
 
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         shape = (self.cfg.initial_resolution,) * self.dim
@@ -187,14 +193,8 @@ class GridField(Field):
         raw = interpolate(params["density"], 1, corners)[0] * self.cfg.density_scale
         return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
 
-    def density(self, params, x) -> Float:
-        return self._sigma(params, x)[0]
-
-    def query(self, params, x, d, keep=None):
-        sigma, corners = self._sigma(params, x)
-        K = self.cfg.color_coeffs
-        raw = interpolate(params["color"], 3 * K, corners, True if keep is None else keep(sigma))
-        return sigma, harmonic_rgb(raw, d, K, self.cfg.sh_degree)
+    def raw_color(self, params, corners, active=True) -> list:
+        return interpolate(params["color"], 3 * self.cfg.color_coeffs, corners, active)
 
     def resize(self, params, res: int) -> dict:
         """Resample both grids to ``res`` vertices per axis (coarse to fine)."""
@@ -212,7 +212,6 @@ class GridField(Field):
         return {"density": dens, "color": col}
 
     def schedule(self, step: int, params) -> dict | None:
-        """New parameters when the coarse-to-fine schedule changes the resolution at ``step``."""
         res = self.cfg.resolution_at(step)
         return self.resize(params, res) if res != self.resolution_of(params) else None
 

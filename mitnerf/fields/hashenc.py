@@ -4,8 +4,8 @@ It computes what ``drjit.nn.HashGridEncoding`` (``align_corners=False``) compute
 table, up to fp32 rounding: the same level scales and resolutions, dense indexing while a level's
 ``res^D`` vertices fit its share of the table and the XOR-of-primes hash beyond, positions offset
 by half a cell, ``F`` consecutive features per entry. The table is a parameter and every lookup a
-scalar ``dr.gather``, so a training step can be recorded with ``dr.freeze`` (Dr.Jit 1.5.0 cannot
-for ``HashGridEncoding`` followed by a network). Twin: :mod:`mitnerf.reference.fields.hashenc`.
+scalar ``dr.gather``, so a training step can be recorded with ``dr.freeze`` (through ``HashGridEncoding``
+it cannot: :mod:`mitnerf._drjit_compat`). Twin: :mod:`mitnerf.reference.fields.hashenc`.
 """
 
 from __future__ import annotations

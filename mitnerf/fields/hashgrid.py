@@ -1,7 +1,7 @@
 """Multi-resolution hash-grid field (Mueller et al. 2022, instant-ngp) for 2D and 3D.
 
 Positions, mapped to ``[0, 1]^D`` over ``[-bound, bound]^D``, are encoded by a hash encoding
-(:mod:`.hashenc`, or ``drjit.nn.HashGridEncoding``: the same function and table layout). A
+(:mod:`.hashenc`: ``drjit.nn.HashGridEncoding``'s function and table layout, in a step that freezes). A
 one-hidden-layer density network maps the features to the raw density and ``geo_features``
 features; a colour network maps those (plus the encoded view direction when ``view_dependent``)
 to a sigmoid RGB. Outside the bound the density is 0. Twin: :mod:`mitnerf.reference.fields.hashgrid`.
@@ -18,23 +18,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import drjit as dr
-import drjit.nn as nn
 import numpy as np
 from drjit.auto.ad import Float
 
 from ..errors import CheckpointError, ConfigError
-from .base import Field, check_config, density_activation, sigmoid
+from .base import Field, FieldConfig, check_config, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size
 from .hashenc import hash_encode, hash_layout
 from .layers import LinearLayers, torch_default_init
 
 
 @dataclass
-class HashGridConfig:
+class HashGridConfig(FieldConfig):
     """A hash-grid encoding and two tiny networks."""
 
-    dim: int = 2
-    """2 or 3."""
     n_levels: int = 12
     """Resolution levels."""
     features_per_level: int = 2
@@ -54,26 +51,20 @@ class HashGridConfig:
     dir_L: int = 4
     """View-direction encoding frequencies."""
     density_activation: str = "trunc_exp"
-    """``trunc_exp`` (instant-ngp), ``softplus`` or ``relu``."""
+    """As every field's, instant-ngp's by default."""
     density_bias: float = -1.0
     """Added to the density output's initial bias."""
     init_scale: float = 1e-4
     """Hash table entries start uniform in [-init_scale, init_scale]."""
     mode: str = "tensor"
     """Network evaluation: ``coopvec`` (traceable: fused into the march) or ``tensor``."""
-    encoding: str = "mitnerf"
-    """``mitnerf`` (:mod:`.hashenc`, scalar gathers) or ``drjit`` (``drjit.nn.HashGridEncoding``;
-    with Dr.Jit 1.5.0 its training step cannot be frozen: train with ``freeze=False``)."""
-    bound: float = 1.5
-    """Half-extent of the encoded region in world units."""
 
     def __post_init__(self):
         check_config(self, n_levels=(1, 32), features_per_level=(1, 8), log2_hashmap_size=(4, 24),
                      base_resolution=(2, 1 << 16), max_resolution=(self.base_resolution, 1 << 20), hidden=(1, 512),
                      geo_features=(1, 128), dir_L=(0, 12))
-        for name, choices in (("mode", ("coopvec", "tensor")), ("encoding", ("mitnerf", "drjit"))):
-            if getattr(self, name) not in choices:
-                raise ConfigError(f"{name} must be {' or '.join(choices)}, got {getattr(self, name)!r}")
+        if self.mode not in ("coopvec", "tensor"):
+            raise ConfigError(f"mode must be coopvec or tensor, got {self.mode!r}")
 
     @property
     def per_level_scale(self) -> float:
@@ -82,17 +73,11 @@ class HashGridConfig:
 
 
 class HashGridField(Field):
-    """See the module docstring."""
-
     def __init__(self, cfg: HashGridConfig):
         super().__init__(cfg)
         self.traceable = cfg.mode == "coopvec"
         self.layout = hash_layout(cfg.dim, cfg.n_levels, cfg.features_per_level, 2 ** cfg.log2_hashmap_size,
                                   cfg.base_resolution, cfg.per_level_scale)
-        self.encoding = None if cfg.encoding != "drjit" else nn.HashGridEncoding(
-            Float, cfg.dim, n_levels=cfg.n_levels, n_features_per_level=cfg.features_per_level,
-            hashmap_size=2 ** cfg.log2_hashmap_size, base_resolution=cfg.base_resolution,
-            per_level_scale=cfg.per_level_scale, init_scale=cfg.init_scale, rng=dr.rng(seed=0))
         n_feat = cfg.n_levels * cfg.features_per_level
         dir_in = encoded_size(cfg.dim, cfg.dir_L, direction=True) if cfg.view_dependent else 0
         self.shapes = [("sigma_net.0", cfg.hidden, n_feat), ("sigma_net.1", 1 + cfg.geo_features, cfg.hidden),
@@ -123,12 +108,7 @@ class HashGridField(Field):
     def _sigma_and_geo(self, params, x):
         L, b = self.layers, self.cfg.bound
         unit = [dr.clip((xi * (1.0 / b) + 1.0) * 0.5, 0.0, 1.0) for xi in x]
-        if self.encoding is None:
-            feat = hash_encode(params["table"], unit, self.layout)
-        else:
-            self.encoding.data = params["table"]          # structure apart from storage: bind this call's table
-            feat = list(self.encoding(unit))
-        h = L.linear(params, "sigma_net.0", L.start(feat), relu=True)
+        h = L.linear(params, "sigma_net.0", L.start(hash_encode(params["table"], unit, self.layout)), relu=True)
         out = L.linear(params, "sigma_net.1", h, relu=False)
         inside = dr.all([dr.abs(xi) <= b for xi in x])
         sigma = dr.select(inside, density_activation(L.split(out, 1)[0], self.cfg.density_activation), 0.0)
@@ -137,7 +117,7 @@ class HashGridField(Field):
     def density(self, params: dict, x) -> Float:
         return self._sigma_and_geo(params, list(x))[0]
 
-    def query(self, params: dict, x, d):
+    def query(self, params: dict, x, d, keep=None):
         L = self.layers
         sigma, out = self._sigma_and_geo(params, list(x))
         enc_d = direction_encoding(list(d), self.cfg.dir_L) if self.cfg.view_dependent else []

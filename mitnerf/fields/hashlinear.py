@@ -30,8 +30,8 @@ import numpy as np
 from drjit.auto.ad import Float, UInt32
 
 from ..errors import CheckpointError, ConfigError, check_number
-from .base import Field, check_config, density_activation
-from .grid import GridSettings, harmonic_rgb, lattice_corners, tv_vertices
+from .base import check_config, density_activation
+from .grid import GridSettings, LatticeField, lattice_corners, tv_vertices
 from .hashenc import lattice_index
 
 
@@ -39,8 +39,6 @@ from .hashenc import lattice_index
 class HashLinearConfig(GridSettings):
     """Levels and tables, with the dense grid's activations and regularisers."""
 
-    dim: int = 2
-    """2 or 3."""
     resolutions: tuple = (65, 129, 257)
     """Vertices per axis of each level, coarse to fine."""
     dense_levels: int = 2
@@ -49,28 +47,18 @@ class HashLinearConfig(GridSettings):
     """Entries of each hashed level, as a power of two (a level with fewer vertices is stored densely)."""
     view_dependent: bool = True
     """View-dependent colour: harmonics of the view direction up to ``sh_degree`` (as the dense grid)."""
-    sh_degree: int = 1
-    """Degree of the view-direction expansion when ``view_dependent``: up to 8 in 2D, 2 in 3D."""
     view_levels: int = 1
     """The first levels carry the view harmonics; finer ones only the base colour."""
     initial_levels: int = 2
     """Levels in use at the start (coarse to fine)."""
     add_level_at: tuple = (150,)
     """Training steps at which the next level joins."""
-    density_activation: str = "softplus"
-    """``softplus``, ``relu`` or ``trunc_exp``, applied after the sum."""
-    density_init: float = -1.0
-    """Initial raw density everywhere (softplus(-1) = 0.31: slightly transparent)."""
-    density_scale: float = 10.0
-    """Raw densities are multiplied by this before the activation (a larger effective learning rate)."""
     tv_weight: float = 1e-4
     """Total-variation weight on the summed raw density (0: none)."""
     tv_color_weight: float = 1e-2
     """Total-variation weight on the summed colour coefficients."""
     tv_samples: int = 8192
     """Vertices of the finest level in use per step for the total variation (0: all)."""
-    bound: float = 1.5
-    """Half-extent of the lattices in world units."""
 
     def __post_init__(self):
         self.resolutions, self.add_level_at = tuple(self.resolutions), tuple(self.add_level_at)
@@ -90,13 +78,11 @@ class HashLinearConfig(GridSettings):
         n = len(self.resolutions)
         return min(n, min(self.initial_levels, n) + sum(step >= s for s in self.add_level_at))
 
-    def final(self) -> "HashLinearConfig":
-        """This config with every level in use (what its size is judged by)."""
+    def final(self) -> "HashLinearConfig":       # every level in use
         return dataclasses.replace(self, initial_levels=len(self.resolutions))
 
     @property
     def schedule_end(self) -> int:
-        """The step of the last level joining (0: none)."""
         return max(self.add_level_at, default=0)
 
 
@@ -139,12 +125,7 @@ def vertex_entry(key: list, level: int, lv: Levels) -> UInt32:
     return lattice_index(key, lv.resolutions[level], lv.sizes[level], lv.dense[level])
 
 
-class HashLinearField(Field):
-    """See the module docstring."""
-
-    traceable = True
-    skips_color = True
-
+class HashLinearField(LatticeField):
     def __init__(self, cfg: HashLinearConfig):
         super().__init__(cfg)
         self.levels = levels_of(cfg)
@@ -215,14 +196,6 @@ class HashLinearField(Field):
         raw = self.raw_density(params, corners) * self.cfg.density_scale
         inside = dr.all([dr.abs(xi) <= self.cfg.bound for xi in x])
         return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
-
-    def density(self, params, x) -> Float:
-        return self._sigma(params, x)[0]
-
-    def query(self, params, x, d, keep=None):
-        sigma, corners = self._sigma(params, x)
-        raw = self.raw_color(params, corners, True if keep is None else keep(sigma))
-        return sigma, harmonic_rgb(raw, d, self.K, self.cfg.sh_degree)
 
     def regularizer(self, params, seed: UInt32) -> Float | None:
         """Total variation of the summed raw density and colour coefficients: the mean over vertices of the finest

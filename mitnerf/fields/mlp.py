@@ -4,11 +4,12 @@ gamma_L(x / bound) (:mod:`.encoding`) feeds a ReLU trunk (``depth`` x ``width``,
 concatenated again before layer ``skip``), a linear density head, and a ``width/2`` ReLU colour
 branch on [trunk features, encoded view direction] to a sigmoid RGB.
 
-Three modes compute the same function: ``coopvec``, cooperative vectors run per ray step inside
-the fused march (``traceable``); ``tensor``, GEMMs on feature-major tensors (:func:`.layers.dense`),
-faster for wide layers; ``native``, a C kernel (:mod:`.native`) near the machine's GEMM peak. The
-last two evaluate all samples at once; ``mode='auto'`` is :func:`auto_mode`. Canonical weights
-are named and shaped as PyTorch's ``nn.Linear`` (``trunk.0.weight`` is ``[out, in]``).
+Three modes compute the same function, named by the recipe (nothing chooses by machine): ``coopvec``,
+cooperative vectors run per ray step inside the fused march (``traceable``); ``tensor``, GEMMs on feature-major
+tensors (:func:`.layers.dense`); ``native``, a C kernel (:mod:`.native`; it needs a C compiler, and a step through
+it cannot be frozen). The last two evaluate all samples at once. ``step_time/w128`` and ``step_time/w32``
+(``benchmarks/step_time.py``) measure each mode's MLP part (``mlp_ms``) against the machine's peak. Canonical
+weights are named and shaped as PyTorch's ``nn.Linear`` (``trunk.0.weight`` is ``[out, in]``).
 """
 
 from __future__ import annotations
@@ -19,31 +20,19 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float
 
-from ..errors import ConfigError
-from .base import Field, check_config, check_types, density_activation, sigmoid
+from ..errors import ConfigError, EnvironmentProblem
+from .base import Field, FieldConfig, check_config, check_types, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size, positional_encoding
 from .layers import LinearLayers, torch_default_init
 from .native import library, native_mlp
 
-MODES = ("auto", "native", "coopvec", "tensor")
-COOPVEC_MAX_WIDTH = 16
-"""Without the native kernel, the widest layer for which cooperative vectors beat tensor
-GEMMs (their weight gradient issues one atomic per weight per SIMD packet on LLVM)."""
-
-
-def auto_mode(width: int) -> str:
-    """The native kernel where it builds, else cooperative vectors up to ``COOPVEC_MAX_WIDTH``, else tensor GEMMs."""
-    if library() is not None:
-        return "native"
-    return "coopvec" if width <= COOPVEC_MAX_WIDTH else "tensor"
+MODES = ("native", "coopvec", "tensor")
 
 
 @dataclass
-class NeRFConfig:
+class NeRFConfig(FieldConfig):
     """Architecture of the vanilla field."""
 
-    dim: int = 2
-    """2 (positions x, y; a view angle) or 3 (x, y, z; a unit view direction)."""
     pos_L: int = 8
     """Frequencies of the positional encoding (0: raw coordinates only)."""
     dir_L: int = 4
@@ -57,14 +46,10 @@ class NeRFConfig:
     when depth >= 4, else no skip; -1: no skip."""
     view_dependent: bool = True
     """Feed the encoded view direction to the colour branch."""
-    density_activation: str = "softplus"
-    """``relu`` (NeRF), ``softplus`` (mip-NeRF) or ``trunc_exp`` (instant-ngp)."""
     density_bias: float = -1.0
     """Added to the density head's initial bias: a slightly transparent start."""
-    bound: float = 1.5
-    """Scene half-extent; positions are divided by it before encoding."""
-    mode: str = "auto"
-    """``coopvec``, ``tensor`` or ``auto`` (by width)."""
+    mode: str = "tensor"
+    """``native``, ``coopvec`` or ``tensor`` (see the module docstring)."""
 
     def __post_init__(self):
         check_types(self)
@@ -75,12 +60,6 @@ class NeRFConfig:
             raise ConfigError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
         if self.view_dependent and self.dir_L < 1:
             raise ConfigError("a view-dependent field needs dir_L >= 1 (or set view_dependent=False)")
-
-    @property
-    def resolved_mode(self) -> str:
-        if self.mode == "auto" or (self.mode == "native" and library() is None):   # no compiler: pure Dr.Jit
-            return auto_mode(self.width)
-        return self.mode
 
 
 def layer_shapes(cfg: NeRFConfig) -> list[tuple[str, int, int]]:
@@ -102,19 +81,19 @@ def init_weights(cfg: NeRFConfig, seed: int) -> dict[str, np.ndarray]:
 
 
 class NeRFField(Field):
-    """The vanilla field; see the module docstring."""
-
     def __init__(self, cfg: NeRFConfig):
         super().__init__(cfg)
-        self.mode = cfg.resolved_mode
-        self.traceable = self.mode == "coopvec"
-        self.freezable = self.mode != "native"       # a frozen step cannot record a call into C
+        self.mode = cfg.mode
+        self.traceable, self.freezable = self.mode == "coopvec", self.mode != "native"   # C calls cannot be recorded
         self.layers = LinearLayers(layer_shapes(cfg), self.mode)
 
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         return init_weights(self.cfg, seed)
 
     def from_numpy(self, arrays: dict[str, np.ndarray]) -> dict:
+        if self.mode == "native" and library() is None:       # storage for a kernel that cannot run here
+            raise EnvironmentProblem("mode=native needs a working C compiler (cc, gcc or $CC) and none built the "
+                                     "native MLP here: install one, or choose --set mode=tensor")
         return self.layers.from_numpy(arrays)
 
     def to_numpy(self, params: dict) -> dict[str, np.ndarray]:
@@ -123,7 +102,7 @@ class NeRFField(Field):
     def density(self, params: dict, x) -> Float:
         return self.query(params, x, None)[0]
 
-    def query(self, params: dict, x, d):
+    def query(self, params: dict, x, d, keep=None):
         """Density and colour at ``x`` seen along ``d``; ``d=None`` (:meth:`density`): the colour is not wanted."""
         cfg, L = self.cfg, self.layers
         enc_x = positional_encoding([xi * (1.0 / cfg.bound) for xi in x], cfg.pos_L)

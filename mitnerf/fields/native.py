@@ -1,7 +1,7 @@
 """The NeRF MLP of :mod:`.mlp` as a ``dr.CustomOp`` whose forward and backward run in C
 (``native_mlp.c``: tiled, threaded, vectorised for ``-march=native``); Dr.Jit keeps the rest.
 
-:func:`library` compiles it on first use; where no compiler works, the MLP runs on Dr.Jit alone.
+:func:`library` compiles it on first use (None where no compiler works: ``mode=native`` is then refused).
 Data crosses as zero-copy NumPy views of evaluated Dr.Jit arrays: the encoded inputs
 sample-major, the weights in canonical order (each ``nn.Linear`` weight ``[out, in]`` then its
 bias), the outputs raw (activations stay in Dr.Jit).
@@ -55,7 +55,7 @@ def library():
     lib.mlp_forward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F]
     lib.mlp_backward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F, _F, _F, _F]
     lib.mlp_forward.restype = lib.mlp_backward.restype = I
-    lib.mlp_set_options.argtypes = [I] * 6
+    lib.mlp_set_threads.argtypes = [I]
     return lib
 
 
@@ -72,13 +72,13 @@ def _host(x: Float) -> np.ndarray:
 
 @contextlib.contextmanager
 def _cores_to_the_kernel():
-    """Dr.Jit's idle workers keep spinning for some milliseconds after a launch; on 2 cores they
-    halve the kernel's speed (``benchmarks/step_time.py``). Shrinking the pool to one thread while
-    the kernel runs parks them; the call is cheap next to the kernel. The kernel runs as many
-    threads as Dr.Jit's pool had (``--threads``): with one, its tiles are summed in one order
-    and a run repeats bit for bit."""
+    """Dr.Jit's idle workers keep spinning for a while after a launch and take cores from the kernel's
+    threads; shrinking the pool to one thread while the kernel runs parks them (``mlp_ms.native`` of
+    ``step_time/w128`` and ``step_time/w32`` in ``benchmarks/step_time.py`` measure the kernel so). The kernel
+    runs as many threads as Dr.Jit's pool had (``--threads``): with one, its tiles are summed in one order and a
+    run repeats bit for bit."""
     n = dr.thread_count()
-    library().mlp_set_options(0, max(1, n), 0, 0, 0, 0)
+    library().mlp_set_threads(max(1, n))
     dr.set_thread_count(1)
     try:
         yield

@@ -29,7 +29,7 @@ import numpy as np
 from drjit.auto.ad import Bool, Float, Int32, TensorXf, UInt32
 
 from ..errors import MitnerfError
-from .base import DENSITY_ACTIVATIONS, Field, density_activation, sigmoid
+from .base import DENSITY_ACTIVATIONS, Field, FieldConfig, density_activation, sigmoid
 from .encoding import angle_harmonics, positional_encoding
 from .layers import concat_rows, dense, row, stack_rows, torch_default_init
 
@@ -38,11 +38,9 @@ POOLS = ("mean", "mean_var")
 
 
 @dataclass
-class PixelNeRFConfig:
+class PixelNeRFConfig(FieldConfig):
     """Architecture of the 2D pixelNeRF field."""
 
-    dim: int = 2
-    """Always 2: pixelNeRF here reads 1D views of 2D scenes."""
     encoder: str = "trained"
     """``frozen`` (random weights, never updated; NeRF2D) or ``trained`` (learnt end to end)."""
     channels: int = 16
@@ -68,12 +66,10 @@ class PixelNeRFConfig:
     pool: str = "mean_var"
     """How per-view codes are combined: ``mean`` (pixelNeRF) or ``mean_var`` (mean and variance
     over views, as IBRNet: agreement between views becomes an explicit input of the head)."""
-    density_activation: str = "softplus"
-    """``relu``, ``softplus`` or ``trunc_exp`` (:func:`mitnerf.fields.base.density_activation`)."""
     density_bias: float = -1.0
     """Added to the density output's initial bias: a slightly transparent start."""
     bound: float = 1.8
-    """Scene half-extent; positions are divided by it before encoding."""
+    """As every field's; positions are divided by it before encoding."""
 
     def __post_init__(self):
         self.dilations = tuple(int(d) for d in self.dilations)
@@ -221,10 +217,6 @@ def make_context(images: np.ndarray, poses: np.ndarray, focal: float, features: 
 
 
 class PixelNeRFField(Field):
-    """The conditioned field; see the module docstring."""
-
-    traceable = False
-
     def __init__(self, cfg: PixelNeRFConfig, context: Context | None = None):
         super().__init__(cfg)
         self.context = context
@@ -270,7 +262,7 @@ class PixelNeRFField(Field):
         inv = dr.rsqrt(dr.maximum(x[0] * x[0] + x[1] * x[1], 1e-12))
         return self.query(params, x, [-x[0] * inv, -x[1] * inv])[0]
 
-    def query(self, params: dict, x, d):
+    def query(self, params: dict, x, d, keep=None):
         """Density ``[n]`` and colour (3 x ``[n]``) at points ``x`` seen along ``d``."""
         ctx = self.context
         if ctx is None:

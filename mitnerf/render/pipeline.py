@@ -103,13 +103,12 @@ class Model:
     def schedule(self, step: int, params: dict) -> dict | None:
         """Parameters that a field's training schedule replaces before ``step`` (e.g. a
         grid's coarse-to-fine resize), with prefixed keys; None when nothing changes."""
-        return join_params(**{g: f.schedule(step, split_params(params, g)) or {} for g, f in self.fields.items()
-                              if hasattr(f, "schedule")}) or None
+        return join_params(**{g: f.schedule(step, split_params(params, g)) or {}
+                              for g, f in self.fields.items()}) or None
 
     def regularizer(self, params: dict, seed: UInt32):
         """Sum of the fields' regularisers (e.g. total variation), or None."""
-        return sum_terms(f.regularizer(split_params(params, g), seed) for g, f in self.fields.items()
-                         if hasattr(f, "regularizer"))
+        return sum_terms(f.regularizer(split_params(params, g), seed) for g, f in self.fields.items())
 
     def final_field(self):
         """The field whose output is the model's answer (fine if present)."""
@@ -131,7 +130,7 @@ class Model:
             sampler = Stratified(cfg.n_coarse, seed, jitter=training)
         else:
             sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins,
-                                      self.fields["coarse"].cfg.bound, cfg.occupancy.resolution, seed,
+                                      self.fields["coarse"].bound, cfg.occupancy.resolution, seed,
                                       jitter=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,

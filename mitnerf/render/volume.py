@@ -40,10 +40,8 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     if method == "replay" and field.traceable:
-        skips = getattr(field, "skips_color", False)    # whether its query takes ``keep``
-
         def source(p, x, d, index, keep=None):
-            return field.query(p, x, d, keep=keep) if skips else field.query(p, x, d)
+            return field.query(p, x, d, keep if field.skips_color else None)
     else:
         t, delta = sampler.points(dr.width(origins[0]), near, far)
         ray = dr.arange(UInt32, dr.width(t)) // sampler.n                   # of every sample (ray-major)

@@ -112,8 +112,7 @@ def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> 
 def final_params(family: str, args: dict, dim: int) -> int:
     """Parameters of a candidate at the end of its training (a grid at its final resolution, a linearly decoded
     hash grid with all its levels): what its size is judged by."""
-    cfg = field_config(family, **args, dim=dim)
-    cfg = cfg.final() if hasattr(cfg, "final") else cfg             # a field with a coarse-to-fine schedule
+    cfg = field_config(family, **args, dim=dim).final()
     return sum(v.size for v in FIELDS[family][1](cfg).init_numpy(0).values())
 
 

@@ -1,16 +1,15 @@
 """The Dr.Jit engine: ``drjit.opt.Adam`` and one step (batch, render, loss, backward, Adam) recorded
-once with ``dr.freeze`` and replayed; values that change between steps enter as opaque arrays."""
+once with ``dr.freeze`` (:func:`mitnerf._drjit_compat.freeze`) and replayed; values that change between steps
+enter as opaque arrays."""
 
 from __future__ import annotations
-
-import gc
 
 import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
 from drjit.opt import Adam
 
-from .._variant import check_llvm
+from .._drjit_compat import check_llvm, freeze, set_learning_rate
 from ..data.dataset import RaySet
 from ..fields import make_field
 from ..render.occupancy import OccupancyGrid
@@ -59,16 +58,13 @@ class DrJitBackend(Backend):
         self.n_pixels = len(rays)
 
     def _new_step(self):
-        gc.collect()
         # no reference to the backend in the closure: the cyclic GC could free it while a frozen call records
         model, cfg, n_final = self.model, self.cfg, self.n_final
         near, far, B = self.near, self.far, cfg.batch_rays
         use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
 
         def step(opt, data, n_pixels, seed, lr, occupied):
-            # Dr.Jit 1.5.0's Adam scales an array-valued learning rate *in place* by each parameter's bias
-            # correction (`scale_o *= arg`): a shared array would compound, so each parameter gets a copy
-            opt.set_learning_rate({k: Float(lr) for k in opt.keys()})
+            set_learning_rate(opt, lr)
             idx = hash_u32(hash_u32(seed) ^ dr.arange(UInt32, B)) % n_pixels
             g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
             params = {k: opt[k] for k in opt.keys()}
@@ -97,28 +93,17 @@ class DrJitBackend(Backend):
             opt.step()
             return loss, bad
 
-        # auto_opaque=False: every input is opaque from the first recording on, so no changing value bakes into a kernel
-        freeze = cfg.freeze and all(getattr(f, "freezable", True) for f in model.fields.values())
-        return dr.freeze(step, auto_opaque=False) if freeze else step
+        return freeze(step) if cfg.freeze and all(f.freezable for f in model.fields.values()) else step
 
     def step(self, index: int, seed: int, lr: float):
         new = self.model.schedule(index, self.params)
         if new:
             self.opt.update(new)    # a resized parameter also resets its Adam state
-            # a fresh recording: replaying one after its inputs changed shape twice segfaults Dr.Jit 1.5.0
-            self._frozen = self._new_step()
+            self._frozen = self._new_step()         # new shapes: a new recording (see _drjit_compat.freeze)
         self.update_occupancy(index, seed)
         occ = self.occupancy
-        # Dr.Jit 1.5.0 aborts ("enqueue_host_func(): this function cannot be recorded") when the garbage
-        # collector frees certain arrays while a frozen function records: collect first, and not during the call
-        enabled = gc.isenabled()
-        gc.disable()
-        try:
-            return self._frozen(self.opt, self.data, dr.opaque(UInt32, self.n_pixels), dr.opaque(UInt32, seed),
-                                dr.opaque(Float, lr), occ.occupied if occ is not None else None)
-        finally:
-            if enabled:
-                gc.enable()
+        return self._frozen(self.opt, self.data, dr.opaque(UInt32, self.n_pixels), dr.opaque(UInt32, seed),
+                            dr.opaque(Float, lr), occ.occupied if occ is not None else None)
 
     def read(self, handle) -> tuple[float, str | None]:
         loss, bad = handle

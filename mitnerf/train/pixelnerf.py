@@ -11,6 +11,7 @@ import numpy as np
 from drjit.auto.ad import Float, UInt32
 from drjit.opt import Adam
 
+from .._drjit_compat import set_learning_rate
 from ..data.cameras import Cameras
 from ..data.dataset import Dataset
 from ..errors import ConfigError
@@ -105,7 +106,7 @@ class PixelTrainer:
         view, pix = rng.choice(perm[k:], B), rng.integers(0, sc.images.shape[1], B)
         fld = self.field.with_context(sc.context(self.field, perm[:k]))
         opt = self.opt
-        opt.set_learning_rate({name: dr.opaque(Float, lr) for name in opt.keys()})   # one copy each (Dr.Jit 1.5.0)
+        set_learning_rate(opt, dr.opaque(Float, lr))
         params = {name: opt[name] for name in opt.keys()}
         out = volume_render(fld, params, columns(sc.origins[view, pix]), columns(sc.directions[view, pix]),
                             dr.opaque(Float, sc.near), dr.opaque(Float, sc.far),

@@ -98,7 +98,9 @@ class Recipe:
         return self
 
     def summary(self) -> str:
-        args = ", ".join(f"{k}={v}" for k, v in self.model.field_args.items())
+        """One line: the family and its settings (its network's ``mode`` always), samples, budget, rate, losses."""
+        args = {**self.model.field_args, **({"mode": self.get("mode")} if self.has("mode") else {})}
+        args = ", ".join(f"{k}={v}" for k, v in args.items())
         r, t = self.model.render, self.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
         occ = ", occupancy grid" if r.occupancy.enabled else ""
@@ -124,14 +126,14 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
        "dense 2D grid, view-dependent colour (harmonics to degree 2: a highlight is narrower than one cosine), "
-       "coarse to fine 129 -> 257, a high learning rate (10 s buys a few "
-       "hundred steps, in which density has to go from transparent to opaque), colour TV + distortion + opacity "
+       "coarse to fine 129 -> 257, a high learning rate (a budget of seconds buys few steps, in which density "
+       "has to go from transparent to opaque), colour TV + distortion + opacity "
        "losses, free space and solid matter where the data has depth (free space from alpha too), 10 s: the default "
        "for 2D datasets"),
-    _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4), dict(n_coarse=64),
+    _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4, mode="native"), dict(n_coarse=64),
        dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=1024),
        "NeRF MLP 4 x 64, L = 8, 3000 steps"),
-    _r("hashgrid-2d", 2, "hashgrid", dict(n_levels=8, log2_hashmap_size=14, hidden=16, geo_features=7),
+    _r("hashgrid-2d", 2, "hashgrid", dict(n_levels=8, log2_hashmap_size=14, hidden=16, geo_features=7, mode="tensor"),
        dict(n_coarse=48),
        dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, **_BUDGET),
        "multi-resolution hash grid + tiny MLPs, a high learning rate (a lower one fits the training views and not "
@@ -151,7 +153,7 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=2048, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "dense voxel grid, view-dependent colour, coarse to fine 33 -> 129, occupancy grid, a high learning rate "
-       "(60 s buys under a thousand steps), a colour TV about 30 times weaker than 2D's (25 views of 100 x 100 "
+       "(a budget of seconds buys few steps), a colour TV of 3e-4 against 2D's 1e-2 (25 views of 100 x 100 "
        "carry the texture and the highlights: 2D's weight blurs both away), distortion + opacity losses, free "
        "space and solid matter where the data has depth, 60 s: the default for 3D datasets"),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17,
@@ -163,10 +165,12 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "hash grid decoded linearly: levels 33 and 65 dense, 129 hashed into 2^17 entries, joining at steps 200 and "
        "600 (grid-3d's coarse to fine); grid-3d's losses, occupancy grid and learning rate, 60 s; 2.1 M "
        "parameters against grid-3d's 27.9 M at 129^3"),
-    _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4), dict(n_coarse=64, n_fine=32),
+    _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4, mode="native"),
+       dict(n_coarse=64, n_fine=32),
        dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=2048),
        "NeRF MLP 4 x 64, L = 10, hierarchical 64 + 32, 3000 steps"),
-    _r("hashgrid-3d", 3, "hashgrid", dict(n_levels=12, log2_hashmap_size=16, base_resolution=16, max_resolution=512),
+    _r("hashgrid-3d", 3, "hashgrid", dict(n_levels=12, log2_hashmap_size=16, base_resolution=16, max_resolution=512,
+                                          mode="tensor"),
        dict(n_coarse=48, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
        dict(time_budget=60.0, lr=0.01, lr_final=0.001, batch_rays=2048, **_BUDGET),
        "hash grid 12 levels, occupancy grid, 60 s"),

@@ -22,9 +22,8 @@ def density_activation(raw: torch.Tensor, kind: str) -> torch.Tensor:
 
 
 class TwinField(nn.Module):
-    """What the field twins share: ``cfg``, ``dim``, and weights as numpy arrays under the canonical names."""
-
-    traceable = False
+    """The twins' contract: ``cfg``, ``dim``, weights as numpy arrays under the canonical names, ``density(x)``,
+    ``query(x, d)``, and a training schedule and regulariser (none by default)."""
 
     def __init__(self, cfg):
         super().__init__()
@@ -35,6 +34,12 @@ class TwinField(nn.Module):
 
     def to_numpy(self) -> dict:
         return {k: v.detach().numpy().copy() for k, v in self.state_dict().items()}
+
+    def schedule(self, step: int) -> bool:          # applied in place; True if parameters were replaced
+        return False
+
+    def regularizer(self, seed: int):               # a loss term on the parameters, or None
+        return None
 
 
 class NeRFField(TwinField):

@@ -33,10 +33,10 @@ class Model(nn.Module):
 
     def schedule(self, step: int) -> bool:
         """Apply the fields' training schedules (in place); True if parameters were replaced."""
-        return any([f.schedule(step) for f in self.fields.values() if hasattr(f, "schedule")])
+        return any([f.schedule(step) for f in self.fields.values()])
 
     def regularizer(self, seed: int):
-        return sum_terms(f.regularizer(seed) for f in self.fields.values() if hasattr(f, "regularizer"))
+        return sum_terms(f.regularizer(seed) for f in self.fields.values())
 
     def final_field(self) -> str:
         return "fine" if "fine" in self.fields else "coarse"
