@@ -14,8 +14,8 @@ from pathlib import Path
 
 from .._io import atomic_write_text
 from ..results import machine_line, record_result
-from ..viz.panels import pyplot, save
-from .claims import CLAIMS, MISSING, SOURCES, _f, _ws
+from ..viz.charts import series_figure
+from .claims import CLAIMS, SOURCES, _f, _ws, claims_table, verdict
 from .report import markdown_table, num, summarise
 from .window_shop import COMBINATIONS
 
@@ -35,30 +35,20 @@ BUDGETS = {
 """Per experiment: its config -> its budget in words."""
 
 
+def rows_of(results: dict, name: str) -> list[dict] | None:
+    """The rows recorded for experiment ``name`` (None: not recorded)."""
+    return results.get(f"experiment/{name}", {}).get("values", {}).get("rows")
+
+
 def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path: Path | None = None) -> dict:
     """Store an experiment's rows (labels and the metrics in ``KEEP``), config and budget in the results file."""
-    verdicts = [f"{c.key}: {c.judge(rows)[1].split(':')[0]}" for c in CLAIMS if c.experiment == name and rows]
+    verdicts = [f"{c.key}: {verdict(c, rows)[1].split(':')[0]}" for c in CLAIMS if c.experiment == name and rows]
     budget = BUDGETS[name](cfg) if name in BUDGETS else ""
     slim = [{k: v for k, v in r.items() if (k in KEEP or not isinstance(v, float))
              and k not in ("recipe", "params", "render_time")} for r in rows]
     return record_result(f"experiment/{name}", {"rows": slim, "wall_s": round(seconds, 1)},
                          f"{len(rows)} runs in {seconds / 60:.0f} min; " + ("; ".join(verdicts) or "no claims"),
                          command, path=path, budget=budget, config=dataclasses.asdict(cfg))
-
-
-def claims_table(results: dict, source: str) -> str:
-    rows = []
-    for c in [c for c in CLAIMS if c.source == source]:
-        entry = results.get(f"experiment/{c.experiment}")
-        ours, stands = "-", f"{MISSING} (`mitnerf experiment {c.experiment}`)"
-        if entry and entry["values"].get("rows"):
-            try:
-                ours, stands = c.judge(entry["values"]["rows"])
-            except (KeyError, ValueError, ZeroDivisionError) as e:
-                ours, stands = "-", f"{MISSING}: the recorded rows lack {e}"
-        rows.append({"claim": f"\"{c.quote}\" ({c.where})", "theirs": c.theirs, "ours": ours, "stands": stands,
-                     "run": f"`{c.experiment}`", "deviations, judged as": c.deviations})
-    return markdown_table(rows)
 
 
 def runs_table(results: dict) -> str:
@@ -100,44 +90,29 @@ def table2(results: dict) -> str:
 
 
 def figure(results: dict, path: Path) -> Path | None:
-    """One figure of four panels from the recorded rows; None when nothing is recorded."""
-    got = {n: results[f"experiment/{n}"]["values"]["rows"] for n in REPRODUCE if f"experiment/{n}" in results}
-    if not got:
-        return None
-    plt = pyplot()
-    fig, ax = plt.subplots(1, 4, figsize=(17, 3.6))
+    """One chart per recorded experiment, ours against the reports; None when nothing is recorded."""
+    got = {n: rows_of(results, n) for n in REPRODUCE if rows_of(results, n)}
+    as_int = lambda rows, *keys: [{**r, **{k: int(r[k]) for k in keys}} for r in rows]
+    panels = []
     if "pe" in got:
-        s = sorted(summarise([{**r, "L": int(r["L"])} for r in got["pe"]], ["L"]), key=lambda r: r["L"])
-        ax[0].errorbar([r["L"] for r in s], [r["psnr"] for r in s], yerr=[r["psnr_std"] for r in s], fmt="o-",
-                       capsize=3)
-        ax[0].set(title="NeRF2D: positional encoding (bunny)", xlabel="L", ylabel="test PSNR [dB]")
+        panels.append(dict(title="NeRF2D: positional encoding (bunny)", xlabel="L", x="L",
+                           rows=summarise(as_int(got["pe"], "L"), ["L"])))
     if "depth" in got:
-        s = summarise([{**r, "views": int(r["views"])} for r in got["depth"]], ["views", "method"])
-        for method, style in (("NeRF", "o--"), ("DS-NeRF", "s-")):
-            pts = sorted((r["views"], r["psnr"]) for r in s if r["method"] == method)
-            ax[1].plot(*zip(*pts), style, label=method)
-        ax[1].set(title="NeRF2D: depth supervision (4 scenes)", xlabel="training views", ylabel="mean test PSNR [dB]")
-        ax[1].legend(fontsize=7)
+        panels.append(dict(title="NeRF2D: depth supervision (4 scenes)", xlabel="training views", x="views",
+                           by=("method",), styles={"NeRF": "o--", "DS-NeRF": "s-"}, err=False,
+                           rows=summarise(as_int(got["depth"], "views"), ["views", "method"])))
     if "pixelnerf" in got:
-        ev = [{**r, "k": int(r["k"])} for r in got["pixelnerf"] if r.get("group") == "eval"]
-        for (scene, method), style in zip(sorted({(r["scene"], r["method"]) for r in ev}), ["o-", "s-", "^--"] * 4):
-            pts = sorted((r["k"], r["psnr"]) for r in summarise([x for x in ev if x["scene"] == scene and
-                                                                 x["method"] == method], ["k"]))
-            ax[2].plot(*zip(*pts), style, label=f"{scene}, {method}")
-        ax[2].set(title="NeRF2D: pixelNeRF vs NeRF", xlabel="input views", ylabel="test PSNR [dB]")
-        ax[2].legend(fontsize=6)
+        ev = as_int([r for r in got["pixelnerf"] if r.get("group") == "eval"], "k")
+        panels.append(dict(title="NeRF2D: pixelNeRF vs NeRF", xlabel="input views", x="k", by=("scene", "method"),
+                           err=False, rows=summarise(ev, ["scene", "method", "k"])))
     if "window-shop" in got:
-        idx = list(COMBINATIONS)
-        ax[3].plot(idx, [COMBINATIONS[i][4] for i in idx], "ks", mfc="none", label="Table 2 (Lego, GPU)")
-        for obj, rs in _ws(got["window-shop"]).items():
-            ax[3].plot(idx, [num(rs.get(str(i), {}).get("psnr")) for i in idx], "o", label=f"ours, {obj}")
-        ax[3].set(title="Window shopping: Table 2 row for row", xlabel="combination", ylabel="test PSNR [dB]",
-                  xticks=idx)
-        ax[3].legend(fontsize=7)
-    for a in ax:
-        a.grid(alpha=0.3)
-    save(fig, path)
-    return path
+        rows = [{"#": i, "psnr": c[4], "run": "Table 2 (Lego, GPU)"} for i, c in COMBINATIONS.items()]
+        rows += [{"#": i, "psnr": rs.get(str(i), {}).get("psnr"), "run": f"ours, {obj}"}
+                 for obj, rs in _ws(got["window-shop"]).items() for i in COMBINATIONS]
+        panels.append(dict(title="Window shopping: Table 2 row for row", xlabel="combination", x="#", by=("run",),
+                           err=False, styles={"Table 2 (Lego, GPU)": "ks", **{r["run"]: "o" for r in rows}},
+                           xticks=list(COMBINATIONS), rows=rows))
+    return series_figure(path, panels, cell=(4.25, 3.6)) if panels else None
 
 
 def document(results: dict, figure_name: str | None, command: str) -> str:
@@ -152,7 +127,8 @@ def document(results: dict, figure_name: str | None, command: str) -> str:
         parts.append(f"![the four experiments, ours against the reports]({figure_name})\n")
     parts += ["## Runs\n", runs_table(results)]
     for source, (title, shared) in SOURCES.items():
-        parts += [f"## {title}\n", f"Deviations in every row: {shared}.\n", claims_table(results, source)]
+        parts += [f"## {title}\n", f"Deviations in every row: {shared}.\n",
+                  claims_table([c for c in CLAIMS if c.source == source], lambda name: rows_of(results, name))]
         if source == "window-shop":
             parts += ["### Table 2, row for row\n", "Their Table 1 combinations at 2000 iterations with their "
                       "Table 2 PSNR, beside ours on each object (the same wall-clock budget per row, and the same "

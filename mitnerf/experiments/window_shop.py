@@ -11,12 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig, noise_preset
 from ..train.recipes import get_recipe
-from ..viz.panels import pyplot, save
+from ..viz.charts import series_figure
+from ..viz.panels import image_grid, image_panel
+from .claims import judged
 from .report import markdown_table, num, train_row, write_csv, write_report
 
 COMBINATIONS = {
@@ -58,11 +58,13 @@ class Config:
     """Photo counts of the grid and hash-grid rows (the fine pass runs at 5 and 25)."""
     seed: int = 0
     """Seed of the photos' placement and of every training."""
+    quick: bool = False
+    """A smoke run: its report judges nothing."""
 
 
 def quick(seed: int = 0) -> Config:
     return Config(objects=("vase",), resolution=32, pool_views=12, test_views=4, combinations=(7, 8),
-                  iters=40, time_budget=6.0, addition_views=(5,), seed=seed)
+                  iters=40, time_budget=6.0, addition_views=(5,), seed=seed, quick=True)
 
 
 def _recipe(name: str, cfg: Config, steps: int = 1, **settings):
@@ -103,39 +105,29 @@ def run(cfg: Config, out: Path) -> list[dict]:
             if rec.renders is not None:
                 thumbs[(obj, label)] = rec.renders["rgb"][0]
     write_csv(out / "results.csv", rows)
-    _figures_and_report(cfg, rows, thumbs, out)
+    _draw(cfg, rows, thumbs, out)
+    _write(cfg, rows, out)
     return rows
 
 
-def _figures_and_report(cfg: Config, rows: list[dict], thumbs: dict, out: Path) -> None:
-    plt = pyplot()
-    fig, axes = plt.subplots(1, len(cfg.objects), figsize=(5.2 * len(cfg.objects), 3.8), squeeze=False)
-    for ax, obj in zip(axes[0], cfg.objects):
+def _draw(cfg: Config, rows: list[dict], thumbs: dict, out: Path) -> None:
+    """``psnr_vs_views.png`` (one chart per object: the report's rows, ours, the grid recipes) and
+    ``thumbnails.png`` (the first test view of every row of the report's table)."""
+    def points(obj):
         rep = [r for r in rows if r["object"] == obj and r["table"] == "report"]
-        ax.scatter([r["images"] for r in rep], [r["report_psnr"] for r in rep], marker="s", facecolors="none",
-                   edgecolors="grey", label="report (Lego, GPU, 2000 it.)")
-        ax.scatter([r["images"] for r in rep], [num(r["psnr"]) for r in rep], color="tab:blue", label="ours, NeRF")
-        for r in rep:
-            ax.annotate(r["row"], (r["images"], num(r["psnr"])), fontsize=7, xytext=(3, 2), textcoords="offset points")
-        for kind, colour in (("grid-3d", "black"), ("hashgrid-3d", "tab:green")):
-            pts = sorted((r["images"], num(r["psnr"])) for r in rows if r["object"] == obj and kind in r["row"])
-            if pts:
-                ax.plot(*zip(*pts), "o--", color=colour, label=f"ours, {kind} recipe")
-        ax.set(xscale="log", title=obj, xlabel="training images", ylabel="test PSNR [dB]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-    save(fig, out / "psnr_vs_views.png")
-    keys = [k for k in thumbs if k[1].isdigit()]
-    if keys:
-        n = max(sum(1 for k in keys if k[0] == o) for o in cfg.objects)
-        fig, axs = plt.subplots(len(cfg.objects), n, figsize=(1.6 * n, 1.8 * len(cfg.objects)), squeeze=False)
-        for i, obj in enumerate(cfg.objects):
-            for j, k in enumerate([k for k in keys if k[0] == obj]):
-                axs[i, j].imshow(np.clip(thumbs[k], 0, 1))
-                axs[i, j].set_title(f"{obj} #{k[1]}", fontsize=7)
-            for a in axs[i]:
-                a.axis("off")
-        save(fig, out / "thumbnails.png")
+        yield from ({"images": r["images"], "psnr": r["report_psnr"], "run": "report (Lego, GPU)"} for r in rep)
+        yield from ({"images": r["images"], "psnr": r["psnr"], "run": "ours, NeRF", "label": r["row"]} for r in rep)
+        yield from ({"images": r["images"], "psnr": r["psnr"], "run": f"ours, {k} recipe"} for r in rows
+                    for k in ("grid-3d", "hashgrid-3d") if r["object"] == obj and k in r["row"])
+
+    series_figure(out / "psnr_vs_views.png", [
+        dict(title=obj, rows=list(points(obj)), x="images", by=("run",), err=False, xscale="log", xlabel="training "
+             "images", styles={"report (Lego, GPU)": "s", "ours, NeRF": "o"}) for obj in cfg.objects], cell=(5.2, 3.8))
+    image_grid(out / "thumbnails.png", [[(image_panel, img, f"{obj} #{row}") for (o, row), img in thumbs.items()
+                                         if o == obj and row.isdigit()] for obj in cfg.objects], cell=(1.6, 1.8))
+
+
+def _write(cfg: Config, rows: list[dict], out: Path) -> None:
     rep = [r for r in rows if r["table"] == "report"]
     table = [{"#": r["row"], "object": r["object"], "images": r["images"], "L": r["L"], "N_c": r["N_c"],
               "view dep.": "on" if r["view_dependence"] else "off", "report PSNR": r["report_psnr"],
@@ -157,4 +149,4 @@ def _figures_and_report(cfg: Config, rows: list[dict], thumbs: dict, out: Path) 
         ("The report's combinations", markdown_table(table, fmt=fmt)),
         ("Our additions", markdown_table(add, fmt=fmt) + "\n![PSNR against images](psnr_vs_views.png)\n\n"
                                                          "![first test view of every row](thumbnails.png)"),
-    ])
+    ], cfg.quick, lambda: judged("window-shop", rows))
