@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-from .report import is_reference, markdown_table, num, pareto_front, seed_summary, summarise
+from .report import is_reference, markdown_table, num, pareto_front, summarise
 
 SOURCES = {
     "nerf2d": ("Scaling Down NeRF with NeRF2D (blog post, PyTorch Lightning, laptop GPU)",
@@ -327,23 +327,19 @@ def claims_table(claims: list[Claim], rows_of: Callable[[str], list[dict] | None
 
 def stability_findings(rows: list[dict]) -> str:
     """What switching each safeguard off does to the runs of the stability experiment."""
-    by = {s["method"]: s for s in seed_summary(rows, "method")}
-    lines = []
+    by = {s["method"]: s for s in summarise(rows, ["method"], ("psnr",))}
     base, relu = by.get("NeRF (defaults)"), by.get("NeRF, ReLU + bias 0, no warm-up")
     near = by.get("NeRF, near plane at the camera")
-    if base and relu:
-        lines.append("- **Dead density.** With ReLU, a zero density bias and no warm-up, "
-                     f"{relu['failed']}/{relu['runs']} runs failed ({relu['failures']}); with the defaults (softplus "
-                     "density, which always has a gradient; a -1 density bias; a 50-step warm-up) "
-                     f"{base['failed']}/{base['runs']}.")
-    if base and near:
-        lines.append(f"- **Floaters in front of the cameras.** With the near plane 5 cm in front of the cameras the "
-                     f"median test PSNR is {near['median']:.2f} dB against {base['median']:.2f} dB with the near plane "
-                     "at the object's bounding circle (the datasets' default).")
-    for s in [by[label] for label in ("DS-NeRF (defaults)", "grid (defaults)") if label in by]:
-        lines.append(f"- **{s['method']}**: {s['failed']}/{s['runs']} failed; median {s['median']:.2f} dB "
-                     f"(10-90 %: {s['p10']:.2f}-{s['p90']:.2f}).")
-    return "\n".join(lines)
+    lines = ["- **Dead density.** With ReLU, a zero density bias and no warm-up, "
+             f"{relu['failed']}/{relu['runs']} runs failed ({relu['failures']}); with the defaults (softplus density, "
+             f"which always has a gradient; a -1 density bias; a 50-step warm-up) {base['failed']}/{base['runs']}."
+             ] if base and relu else []
+    lines += [f"- **Floaters in front of the cameras.** With the near plane 5 cm in front of the cameras the median "
+              f"test PSNR is {near['psnr_median']:.2f} dB against {base['psnr_median']:.2f} dB with the near plane at "
+              "the object's bounding circle (the datasets' default)."] if base and near else []
+    return "\n".join(lines + [f"- **{s['method']}**: {s['failed']}/{s['runs']} failed; median {s['psnr_median']:.2f} "
+                              f"dB (10-90 %: {s['psnr_p10']:.2f}-{s['psnr_p90']:.2f})." for label, s in by.items()
+                              if label in ("DS-NeRF (defaults)", "grid (defaults)")])
 
 
 SPEEDUP = 100
@@ -371,10 +367,14 @@ def reference_verdict(rows: list[dict]) -> str:
     return text
 
 
+FINDINGS = {"stability": ("Failure modes and what prevents them", stability_findings),
+            "sweep": ("Torch reference", reference_verdict)}
+"""Per experiment, the section of findings of our own its report ends with, and the function that draws them."""
+
+
 def judged(experiment: str, rows: list[dict]) -> list[tuple[str, str]]:
     """The sections of an experiment's report that draw conclusions from its ``rows``: the source reports' claims it
-    tests, judged as ``REPRODUCTION.md`` judges them, and its findings."""
+    tests, judged as ``REPRODUCTION.md`` judges them, and its :data:`FINDINGS`."""
     claims = [c for c in CLAIMS if c.experiment == experiment]
     out = [("The source reports' claims", claims_table(claims, lambda _: rows))] if claims else []
-    return out + ([("Failure modes and what prevents them", stability_findings(rows))] if experiment == "stability"
-                  else [])
+    return out + ([(FINDINGS[experiment][0], FINDINGS[experiment][1](rows))] if experiment in FINDINGS else [])

@@ -59,10 +59,19 @@ def quick(seed: int = 0) -> Config:
                   seeds=1, seed=seed, quick=True)
 
 
+def panels(rows: list[dict]) -> list[dict]:
+    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR and depth error against the
+    training views, per scene and method."""
+    s = summarise(rows, ["scene", "views", "method"], ("psnr", "depth_error"))
+    return [dict(title="depth supervision", rows=s, x="views", y=y, by=("scene", "method"), ylabel=label,
+                 styles={"NeRF": "o--", "DS-NeRF": "s-"}, xlabel="training views")
+            for y, label in (("psnr", "test PSNR [dB]"), ("depth_error", "test depth error"))]
+
+
 def run(cfg: Config, out: Path) -> list[dict]:
     rows = []
     for scene in cfg.scenes:
-        panels = []
+        grid = []
         for k in cfg.views:
             ds = cached_dataset(scene, RigConfig(dim=2, n_train=k, n_val=4, n_test=20, layout="even", seed=cfg.seed))
             for method, supervised in METHODS:
@@ -76,20 +85,16 @@ def run(cfg: Config, out: Path) -> list[dict]:
                     rows.append(row)
                     if s == 0:
                         p = rec.renders
-                        panels.append([(strip_panel, p["rgb"], f"{method}, {k} views: PSNR {rec.psnr:.1f}"),
+                        grid.append([(strip_panel, p["rgb"], f"{method}, {k} views: PSNR {rec.psnr:.1f}"),
                                        (depth_panel, p["depth"], p["opacity"], ds.near, ds.far,
                                         f"depth error {rec.depth_error:.3f}"),
                                        (density_panel, r.backend.density, ds.bound, ds.meta.get("polygon"), "density")])
         image_grid(out / f"depth_{scene}.png", [[(strip_panel, ds["test"].target(ds.background), f"{scene}: ground "
                                                  "truth"), (depth_panel, ds["test"].depth, None, ds.near, ds.far,
-                                                            "true depth")]] + panels, cell=(3, 1.25))
+                                                            "true depth")]] + grid, cell=(3, 1.25))
     write_csv(out / "depth.csv", rows)
+    series_figure(out / "depth_summary.png", panels(rows), cell=(5, 3.4))
     summary = summarise(rows, ["scene", "views", "method"], ("psnr", "depth_error", "iou"))
-    styles = {"NeRF": "o--", "DS-NeRF": "s-"}
-    series_figure(out / "depth_summary.png", [
-        dict(rows=summary, x="views", by=("scene", "method"), styles=styles, xlabel="training views"),
-        dict(rows=summary, x="views", y="depth_error", by=("scene", "method"), styles=styles,
-             xlabel="training views", ylabel="test depth error")], cell=(5, 3.4))
     table = [{**{k: s[k] for k in ("scene", "views", "method", "runs")}, "PSNR": mean_std(s, "psnr"),
               "depth error": mean_std(s, "depth_error", ".3f"), "IoU": mean_std(s, "iou", ".3f")} for s in summary]
     figs = "\n\n".join(f"### {s}\n\n![{s}](depth_{s}.png)" for s in cfg.scenes)

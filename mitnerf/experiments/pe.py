@@ -53,6 +53,14 @@ def quick(seed: int = 0) -> Config:
     return Config(Ls=(0, 2, 8), n_train=20, width=16, depth=3, samples=32, steps=120, seeds=1, seed=seed, quick=True)
 
 
+def panels(rows: list[dict]) -> list[dict]:
+    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR and train time against L."""
+    s = summarise(rows, ["L"], ("psnr", "train_time"))
+    return [dict(title="positional encoding", rows=s, x="L", xlabel="position frequencies L"),
+            dict(title="positional encoding", rows=s, x="L", y="train_time", err=False, xlabel="position frequencies L",
+                 ylabel="train time [s]")]
+
+
 def run(cfg: Config, out: Path) -> list[dict]:
     ds = cached_dataset(cfg.scene, RigConfig(dim=2, n_train=cfg.n_train, n_val=4, n_test=20, seed=cfg.seed,
                                              **noise_preset(1.0)))
@@ -68,9 +76,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
                 firsts[L] = (r.backend.density, rec.renders["rgb"])
     write_csv(out / "pe.csv", rows)
     summary = summarise(rows, ["L"], ("psnr", "ssim", "iou", "train_time"))
-    series_figure(out / "pe_psnr.png", [dict(rows=summary, x="L", xlabel="position frequencies L"), dict(
-        rows=summary, x="L", y="train_time", err=False, xlabel="position frequencies L", ylabel="train time [s]")],
-        f"{cfg.scene}: vanilla {cfg.width} x {cfg.depth}, {cfg.steps} steps, {cfg.seeds} seed(s)")
+    series_figure(out / "pe_psnr.png", panels(rows),
+                  f"{cfg.scene}: vanilla {cfg.width} x {cfg.depth}, {cfg.steps} steps, {cfg.seeds} seed(s)")
     image_grid(out / "pe_density.png", [[(density_panel, firsts[L][0], ds.bound, ds.meta.get("polygon"), f"L = {L}")
                                          for L in cfg.Ls]], cell=(2.2, 2.4))
     image_grid(out / "pe_views.png", [[(strip_panel, ds["test"].target(ds.background), "ground truth")]]

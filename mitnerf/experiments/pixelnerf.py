@@ -83,14 +83,6 @@ def quick(seed: int = 0) -> Config:
                   pixel_budget=22.0, nerf_iters=200, nerf_time_budget=4.0, seed=seed, quick=True)
 
 
-def tiny(seed: int = 0) -> Config:
-    """The smallest run that writes every file (the test suite)."""
-    return Config(n_outlines=2, extra_scenes=(), train_views=6, outline_test_views=4, n_seen=1, n_unseen=1,
-                  eval_scenes=("bunny",), eval_train_views=8, eval_test_views=4, ks=(1, 3), draws=1, k_range=(1, 3),
-                  model=PixelNeRFConfig(channels=8, dilations=(1, 2), width=32), pixel_iters=10, nerf_iters=8,
-                  seed=seed, quick=True)
-
-
 def rig(n_train: int, n_test: int, seed: int) -> RigConfig:
     return RigConfig(dim=2, n_train=n_train, n_val=0, n_test=n_test, resolution=100, seed=seed, **noise_preset(1.0))
 
@@ -103,6 +95,15 @@ def outline(cfg: Config, i: int):
 def picks(ds, k: int, draw: int, draws: int) -> np.ndarray:
     """The ``k`` input views of draw ``draw`` (each draw starts the even spread at another camera)."""
     return pick_views(ds["train"].cameras, k, start=draw * len(ds["train"]) // max(draws, 1))
+
+
+def panels(rows: list[dict]) -> list[dict]:
+    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR against the input views on each
+    evaluation scene, then on the seen and the unseen outlines."""
+    s = summarise([{**r, "panel": r["scene"] if r["group"] == "eval" else r["group"]} for r in rows],
+                  ["panel", "method", "k"], ("psnr",))
+    return [dict(title=f"pixelNeRF: {p}", rows=[r for r in s if r["panel"] == p], x="k", by=("method",),
+                 xlabel="input views k", xticks=sorted({r["k"] for r in s})) for p in dict.fromkeys(r["panel"] for r in s)]
 
 
 def run(cfg: Config, out: Path) -> list[dict]:
@@ -160,12 +161,7 @@ def run(cfg: Config, out: Path) -> list[dict]:
 def _draw(cfg, rows, history, renders, densities, evals, methods, out) -> None:
     """``psnr_vs_views.png`` (per evaluation scene, then the seen and the unseen outlines), per evaluation scene
     ``strips_<scene>.png`` and ``density_<scene>.png`` (a row per method, a column per k), ``training.png``."""
-    panels = summarise([{**r, "panel": r["scene"] if r["group"] == "eval" else r["group"]} for r in rows],
-                       ["panel", "method", "k"], ("psnr",))
-    series_figure(out / "psnr_vs_views.png", [
-        dict(title=p, rows=[s for s in panels if s["panel"] == p], x="k", by=("method",), xlabel="input views k",
-             xticks=list(cfg.ks)) for p in list(cfg.eval_scenes) + ["seen outline", "unseen outline"]],
-        cell=(3.6, 3.4))
+    series_figure(out / "psnr_vs_views.png", panels(rows), cell=(3.6, 3.4))
     for name, ds in evals.items():
         target = ds["test"].target(ds.background)
         image_grid(out / f"strips_{name}.png", [[(strip_panel, target, f"ground truth, k = {k}") for k in cfg.ks]] + [

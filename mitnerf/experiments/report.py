@@ -46,34 +46,25 @@ def num(v) -> float:
 
 
 def summarise(rows: list[dict], by: list[str], metrics=("psnr", "ssim")) -> list[dict]:
-    """Rows grouped by the ``by`` columns: count, failures, mean / std / min / max of each metric over the ok runs."""
+    """Rows grouped by the ``by`` columns: ``runs``, ``failed``, ``failure_rate``, ``failures`` (the failed runs'
+    distinct reasons, before any detail), and each metric's mean, ``_std``, ``_min``, ``_max``, ``_median``, ``_p10``
+    and ``_p90`` over the ok runs."""
     groups: dict[tuple, list] = {}
     for r in rows:
         groups.setdefault(tuple(r[k] for k in by), []).append(r)
     out = []
     for key, rs in groups.items():
         ok = [r for r in rs if r.get("status") == "ok"]
-        row = {**dict(zip(by, key)), "runs": len(rs), "failed": len(rs) - len(ok)}
+        row = {**dict(zip(by, key)), "runs": len(rs), "failed": len(rs) - len(ok), "failure_rate": 1 - len(ok) / len(rs),
+               "failures": "; ".join(sorted({str(r.get("reason")).split(";")[0].split(" (")[0] for r in rs
+                                             if r.get("status") != "ok"})) or "-"}
         for m in metrics:
             vals = np.array([num(r.get(m)) for r in ok])
             vals = vals[np.isfinite(vals)]
-            stats = (vals.mean(), vals.std(), vals.min(), vals.max()) if vals.size else (math.nan,) * 4
-            row.update({m + k: float(v) for k, v in zip(("", "_std", "_min", "_max"), stats)})
+            stats = ((vals.mean(), vals.std(), vals.min(), vals.max(), *np.percentile(vals, [50, 10, 90])) if vals.size
+                     else (math.nan,) * 7)
+            row.update({m + k: float(v) for k, v in zip(("", "_std", "_min", "_max", "_median", "_p10", "_p90"), stats)})
         out.append(row)
-    return out
-
-
-def seed_summary(rows: list[dict], by: str) -> list[dict]:
-    """:func:`summarise` over seeds, plus each group's ``failure_rate``, the ``median``, ``p10`` and ``p90`` of its
-    ok runs' PSNR and its ``failures`` (the distinct reasons, before any detail)."""
-    out = summarise(rows, [by], ("psnr",))
-    for s in out:
-        rs = [r for r in rows if r[by] == s[by]]
-        p = np.array([num(r["psnr"]) for r in rs if r["status"] == "ok"])
-        s["failure_rate"] = s["failed"] / s["runs"]
-        s["median"], s["p10"], s["p90"] = (np.median(p), *np.percentile(p, [10, 90])) if len(p) else (math.nan,) * 3
-        s["failures"] = "; ".join(sorted({r["reason"].split(";")[0].split(" (")[0] for r in rs
-                                          if r["status"] != "ok"})) or "-"
     return out
 
 

@@ -9,15 +9,15 @@ the results file.
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 
 from .._io import atomic_write_text
 from ..results import machine_line, record_result
 from ..viz.charts import series_figure
-from .claims import CLAIMS, SOURCES, _f, _ws, claims_table, verdict
-from .report import markdown_table, num, summarise
-from .window_shop import COMBINATIONS
+from . import EXPERIMENTS
+from .claims import CLAIMS, SOURCES, claims_table, verdict
+from .report import markdown_table
+from .window_shop import tables
 
 REPRODUCE = ("pe", "depth", "pixelnerf", "window-shop")
 """The experiments that test the reports' claims (``mitnerf experiment all``)."""
@@ -62,57 +62,11 @@ def runs_table(results: dict) -> str:
     return markdown_table(rows)
 
 
-def table2(results: dict) -> str:
-    e = results.get("experiment/window-shop")
-    objs = _ws(e["values"]["rows"]) if e else {}
-    rows = []
-    for i, (images, L, nc, vd, theirs) in COMBINATIONS.items():
-        row = {"#": i, "images": images, "L": L, "N_c": nc, "view dep.": "on" if vd else "off",
-               "Table 2 PSNR": f"{theirs:.1f}"}
-        for obj, rs in objs.items():
-            r = rs.get(str(i), {})
-            row[f"{obj} PSNR / SSIM"] = f"{_f(r.get('psnr'), '.2f')} / {_f(r.get('ssim'), '.3f')}"
-            steps, t = num(r.get("steps")), num(r.get("train_time"))
-            row[f"{obj} steps, s"] = f"{int(steps) if math.isfinite(steps) else '-'}, {_f(t, '.0f')}"
-        rows.append(row)
-    add = [{"row": label, "object": obj, "images": r.get("images"), "PSNR": _f(r.get("psnr"), ".2f"),
-            "SSIM": _f(r.get("ssim"), ".3f"), "steps": r.get("steps"), "train s": _f(r.get("train_time"), ".0f")}
-           for obj, rs in objs.items() for label, r in rs.items() if not label.isdigit()]
-    notes = []
-    for obj, rs in objs.items():
-        one, four = num(rs.get("7", {}).get("psnr")), num(rs.get("7, four direction frequencies", {}).get("psnr"))
-        if math.isfinite(one) and math.isfinite(four):
-            notes.append(f"* {obj}: combination 7 (5 photos) with NeRF's four direction frequencies {four:.2f} dB, "
-                         f"with one {one:.2f} dB ({four - one:+.2f} dB): with few photos, a colour free to vary "
-                         "with direction explains each photo by its direction instead of by geometry.")
-    return (markdown_table(rows) + "\n" + "\n".join(notes) + ("\n" if notes else "") + "\nOur additions:\n\n"
-            + markdown_table(add))
-
-
 def figure(results: dict, path: Path) -> Path | None:
-    """One chart per recorded experiment, ours against the reports; None when nothing is recorded."""
-    got = {n: rows_of(results, n) for n in REPRODUCE if rows_of(results, n)}
-    as_int = lambda rows, *keys: [{**r, **{k: int(r[k]) for k in keys}} for r in rows]
-    panels = []
-    if "pe" in got:
-        panels.append(dict(title="NeRF2D: positional encoding (bunny)", xlabel="L", x="L",
-                           rows=summarise(as_int(got["pe"], "L"), ["L"])))
-    if "depth" in got:
-        panels.append(dict(title="NeRF2D: depth supervision (4 scenes)", xlabel="training views", x="views",
-                           by=("method",), styles={"NeRF": "o--", "DS-NeRF": "s-"}, err=False,
-                           rows=summarise(as_int(got["depth"], "views"), ["views", "method"])))
-    if "pixelnerf" in got:
-        ev = as_int([r for r in got["pixelnerf"] if r.get("group") == "eval"], "k")
-        panels.append(dict(title="NeRF2D: pixelNeRF vs NeRF", xlabel="input views", x="k", by=("scene", "method"),
-                           err=False, rows=summarise(ev, ["scene", "method", "k"])))
-    if "window-shop" in got:
-        rows = [{"#": i, "psnr": c[4], "run": "Table 2 (Lego, GPU)"} for i, c in COMBINATIONS.items()]
-        rows += [{"#": i, "psnr": rs.get(str(i), {}).get("psnr"), "run": f"ours, {obj}"}
-                 for obj, rs in _ws(got["window-shop"]).items() for i in COMBINATIONS]
-        panels.append(dict(title="Window shopping: Table 2 row for row", xlabel="combination", x="#", by=("run",),
-                           err=False, styles={"Table 2 (Lego, GPU)": "ks", **{r["run"]: "o" for r in rows}},
-                           xticks=list(COMBINATIONS), rows=rows))
-    return series_figure(path, panels, cell=(4.25, 3.6)) if panels else None
+    """The recorded experiments' charts (each experiment's ``panels``), ours against the reports; None when nothing
+    is recorded."""
+    panels = [p for n in REPRODUCE if rows_of(results, n) for p in EXPERIMENTS[n].panels(rows_of(results, n))]
+    return series_figure(path, panels, cell=(4.25, 3.6), columns=3) if panels else None
 
 
 def document(results: dict, figure_name: str | None, command: str) -> str:
@@ -132,7 +86,7 @@ def document(results: dict, figure_name: str | None, command: str) -> str:
         if source == "window-shop":
             parts += ["### Table 2, row for row\n", "Their Table 1 combinations at 2000 iterations with their "
                       "Table 2 PSNR, beside ours on each object (the same wall-clock budget per row, and the same "
-                      "2000 steps where the budget affords them).\n", table2(results)]
+                      "2000 steps where the budget affords them).\n", *tables(rows_of(results, "window-shop") or [])]
     return "\n".join(parts)
 
 

@@ -12,12 +12,14 @@ import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig
 from ..train.recipes import get_recipe
-from ..viz.charts import plot_seeds
+from ..viz.charts import series_figure
 from .claims import judged
-from .report import markdown_table, seed_summary, train_row, write_csv, write_report
+from .report import markdown_table, summarise, train_row, write_csv, write_report
 
 NERF = dict(width=32, depth=3, pos_L=8, dir_L=4)
 # label -> (recipe, overrides, near plane override)
@@ -70,11 +72,21 @@ def run(cfg: Config, out: Path) -> list[dict]:
                                                val_every=max(cfg.steps // 3, 1), seed=cfg.seed + k)
             rows.append(train_row(data, recipe, {"method": label, "seed": cfg.seed + k}, geometry_metrics=False)[0])
     write_csv(out / "stability.csv", rows)
-    plot_seeds(rows, list(cfg.methods), out / "stability.png",
-               f"{cfg.scene}, {cfg.views} views, {cfg.seeds} seeds per method, {cfg.steps} steps")
-    table = markdown_table(seed_summary(rows, "method"), ["method", "runs", "failed", "failure_rate", "median", "p10",
-                                                          "p90", "failures"],
-                           fmt={"failure_rate": ".2f", "median": ".2f", "p10": ".2f", "p90": ".2f"})
+    summary = summarise(rows, ["method"], ("psnr",))
+    at = {m: i for i, m in enumerate(cfg.methods)}               # every run at its method, jittered; failed at 5 dB
+    runs = [{"x": at[r["method"]] + j, "psnr": r["psnr"] if r["status"] == "ok" else 5.0,
+             "run": "ok" if r["status"] == "ok" else "failed"}
+            for r, j in zip(rows, np.random.default_rng(0).uniform(-0.15, 0.15, len(rows)))]
+    ticks = dict(xticks=list(at.values()), xticklabels=[m.replace(", ", ",\n") for m in at], xlabel="")
+    series_figure(out / "stability.png", [
+        dict(rows=runs, x="x", by=("run",), styles={"ok": "o", "failed": "rx"}, err=False, **ticks),
+        dict(rows=[{"x": at[s["method"]], **s} for s in summary], x="x", y="failure_rate", styles={None: "rs"},
+             err=False, ylabel="failure rate", **ticks)],
+        f"{cfg.scene}, {cfg.views} views, {cfg.seeds} seeds per method, {cfg.steps} steps", cell=(6, 3.8))
+    table = markdown_table(summary, ["method", "runs", "failed", "failure_rate", "psnr_median", "psnr_p10",
+                                     "psnr_p90", "failures"], {k: ".2f" for k in ("failure_rate", "psnr_median",
+                                                                                 "psnr_p10", "psnr_p90")},
+                           {"psnr_median": "median", "psnr_p10": "p10", "psnr_p90": "p90"})
     write_report(out, f"Stability from {cfg.views} views of the {cfg.scene}", [
         ("Setup", f"{cfg.seeds} seeds per method (initial weights, batches, jitter; the views are fixed), "
                   f"{cfg.steps} steps, {cfg.samples} samples per ray, {cfg.views} evenly spaced training views, "

@@ -16,8 +16,8 @@ from ..data.rig import RigConfig, noise_preset
 from ..train.recipes import get_recipe
 from ..viz.charts import series_figure
 from ..viz.panels import image_grid, image_panel
-from .claims import judged
-from .report import markdown_table, num, train_row, write_csv, write_report
+from .claims import _f, _ws, judged
+from .report import markdown_table, train_row, write_csv, write_report
 
 COMBINATIONS = {
     # index: (images, L, N_c, view dependence, the report's PSNR in dB)
@@ -80,6 +80,17 @@ def nerf_recipe(cfg: Config, L: int, n_coarse: int, vd: bool, n_fine: int = 0, s
                    batch_rays=cfg.batch_rays)
 
 
+def panels(rows: list[dict]) -> list[dict]:
+    """The chart of its rows (:func:`~mitnerf.viz.charts.series_figure`): Table 2 and ours on each object, row for
+    row."""
+    pts = [{"#": i, "psnr": c[4], "run": "Table 2 (Lego, GPU)"} for i, c in COMBINATIONS.items()]
+    pts += [{"#": i, "psnr": rs[str(i)].get("psnr"), "run": f"ours, {obj}"} for obj, rs in _ws(rows).items()
+            for i in COMBINATIONS if str(i) in rs]
+    return [dict(title="window shopping: Table 2 row for row", rows=pts, x="#", by=("run",), err=False,
+                 xlabel="combination", xticks=list(COMBINATIONS), styles={p["run"]: "o" for p in pts[::-1]} | {
+                     pts[0]["run"]: "ks"})]
+
+
 def run(cfg: Config, out: Path) -> list[dict]:
     rows, thumbs = [], {}
     for obj in cfg.objects:
@@ -111,33 +122,33 @@ def run(cfg: Config, out: Path) -> list[dict]:
 
 
 def _draw(cfg: Config, rows: list[dict], thumbs: dict, out: Path) -> None:
-    """``psnr_vs_views.png`` (one chart per object: the report's rows, ours, the grid recipes) and
-    ``thumbnails.png`` (the first test view of every row of the report's table)."""
-    def points(obj):
-        rep = [r for r in rows if r["object"] == obj and r["table"] == "report"]
-        yield from ({"images": r["images"], "psnr": r["report_psnr"], "run": "report (Lego, GPU)"} for r in rep)
-        yield from ({"images": r["images"], "psnr": r["psnr"], "run": "ours, NeRF", "label": r["row"]} for r in rep)
-        yield from ({"images": r["images"], "psnr": r["psnr"], "run": f"ours, {k} recipe"} for r in rows
-                    for k in ("grid-3d", "hashgrid-3d") if r["object"] == obj and k in r["row"])
-
-    series_figure(out / "psnr_vs_views.png", [
-        dict(title=obj, rows=list(points(obj)), x="images", by=("run",), err=False, xscale="log", xlabel="training "
-             "images", styles={"report (Lego, GPU)": "s", "ours, NeRF": "o"}) for obj in cfg.objects], cell=(5.2, 3.8))
+    """``psnr_vs_views.png`` (:func:`panels`) and ``thumbnails.png`` (the first test view of every row of the report's
+    table)."""
+    series_figure(out / "psnr_vs_views.png", panels(rows), cell=(6, 3.8))
     image_grid(out / "thumbnails.png", [[(image_panel, img, f"{obj} #{row}") for (o, row), img in thumbs.items()
                                          if o == obj and row.isdigit()] for obj in cfg.objects], cell=(1.6, 1.8))
 
 
+def tables(rows: list[dict]) -> tuple[str, str]:
+    """The report's Table 1 and 2 row for row beside ours on each object, and our additions (markdown tables)."""
+    objs, table = _ws(rows), []
+    for i, (images, L, nc, vd, theirs) in COMBINATIONS.items():
+        row = {"#": i, "images": images, "L": L, "N_c": nc, "view dep.": "on" if vd else "off",
+               "Table 2 PSNR": f"{theirs:.1f}"}
+        for obj, rs in objs.items():
+            r = rs.get(str(i), {})
+            row[f"{obj} PSNR / SSIM"] = f"{_f(r.get('psnr'), '.2f')} / {_f(r.get('ssim'), '.3f')}"
+            row[f"{obj} steps, s"] = f"{_f(r.get('steps'), '.0f')}, {_f(r.get('train_time'), '.0f')}"
+        table.append(row)
+    add = [{"row": label, "object": obj, "images": r.get("images"), "PSNR": _f(r.get("psnr"), ".2f"),
+            "SSIM": _f(r.get("ssim"), ".3f"), "Chamfer": _f(r.get("chamfer"), ".4f"), "steps": r.get("steps"),
+            "train s": _f(r.get("train_time"), ".0f")} for obj, rs in objs.items() for label, r in rs.items()
+           if not label.isdigit()]
+    return markdown_table(table), "Our additions:\n\n" + markdown_table(add)
+
+
 def _write(cfg: Config, rows: list[dict], out: Path) -> None:
-    rep = [r for r in rows if r["table"] == "report"]
-    table = [{"#": r["row"], "object": r["object"], "images": r["images"], "L": r["L"], "N_c": r["N_c"],
-              "view dep.": "on" if r["view_dependence"] else "off", "report PSNR": r["report_psnr"],
-              "our PSNR": num(r["psnr"]), "SSIM": num(r["ssim"]), "steps": r["steps"],
-              "train s": num(r["train_time"]), "status": r["status"]} for r in rep]
-    add = [{"row": r["row"], "object": r["object"], "PSNR": num(r["psnr"]), "SSIM": num(r["ssim"]),
-            "Chamfer": num(r["chamfer"]), "steps": r["steps"], "train s": num(r["train_time"])}
-           for r in rows if r["table"] == "additions"]
-    arch = ARCHITECTURES[cfg.architecture]
-    fmt = {"our PSNR": ".2f", "SSIM": ".3f", "train s": ".0f", "PSNR": ".2f", "Chamfer": ".4f"}
+    arch, (table, add) = ARCHITECTURES[cfg.architecture], tables(rows)
     write_report(out, "Window shopping: the report's table, row for row", [
         ("Set-up", f"Objects {', '.join(cfg.objects)}, {cfg.resolution} x {cfg.resolution} photos (random, noisy, "
                    f"upper hemisphere; N images = the first N of one pool), {cfg.test_views} test views on the 360 "
@@ -146,7 +157,7 @@ def _write(cfg: Config, rows: list[dict], out: Path) -> None:
                    f"pass; every row at most {cfg.iters} steps of {cfg.batch_rays} rays and {cfg.time_budget:g} s. "
                    "Deviations from the report: our objects (not the tiny-NeRF Lego), CPU (2 cores) instead of a GPU, "
                    "a time cap per row."),
-        ("The report's combinations", markdown_table(table, fmt=fmt)),
-        ("Our additions", markdown_table(add, fmt=fmt) + "\n![PSNR against images](psnr_vs_views.png)\n\n"
-                                                         "![first test view of every row](thumbnails.png)"),
+        ("The report's combinations", table),
+        ("Our additions", add + "\n![PSNR against images](psnr_vs_views.png)\n\n"
+                                "![first test view of every row](thumbnails.png)"),
     ], cfg.quick, lambda: judged("window-shop", rows))

@@ -1,27 +1,16 @@
-"""Parity of the Dr.Jit paths and the torch twin: the same weights, rays and random cotangents through
+"""Parity of every Dr.Jit path with the torch twin: the same weights, rays and random cotangents through the
+custom volume integral (replayed adjoint; a CoopVec field fused into the march, a tensor-mode field on gathered
+samples, the native MLP kernel), Dr.Jit's plain automatic differentiation and the PyTorch reference; field outputs,
+colour, depth and opacity of both passes, the gradient of every weight and of the ray origins and directions; then
+central differences on a tiny case (``examples/check_backends.py`` prints it).
 
-  (a) the Dr.Jit custom volume integral (replayed adjoint), with a CoopVec field (fused into the
-      march), a tensor-mode field (gathered samples) and, for the MLP, the native kernel,
-  (b) Dr.Jit plain automatic differentiation (flat samples, block prefix sums),
-  (c) the PyTorch reference,
-
-comparing field outputs, colour, depth, opacity (coarse and fine passes), the gradient of every
-weight and of the ray origins and directions; then finite differences on a tiny case
-(``examples/check_backends.py`` prints it).
-
-fp32 tolerances, against (c) for values and (b) for gradients:
-  values       max |err| <= 1e-5 (colours and opacities are O(1); depths O(5): 5e-5)
-  gradients    max |err| / max |reference| <= 5e-3. The slack is for ReLU kinks: when a
-               pre-activation lies within rounding of zero, Dr.Jit's FMAs and torch's GEMM
-               accumulation can put it on different sides, and that sample's gradient changes by a
-               finite step (an fp64 reference sides with one backend there). Bugs give 1e-2 and more.
-  finite diff. central differences in fp32 (eps 1e-2, the 3 largest-gradient entries of every
-               parameter after the last ReLU, 3 rays x 8 samples): |fd - grad| <= 2e-2 x
-               max(|grad|, |fd|, 10 % of the largest gradient of that tensor)
-
-Weights are the field's initialisation, with N(0, 0.3) noise added to grid values and hash tables
-(they start constant or near zero). Network weights keep their initialisation: noise there puts
-ReLU pre-activations within the finite-difference step of their kinks.
+fp32 tolerances, values against torch and gradients against plain AD: values max |err| <= 1e-5 (depths, O(5):
+5e-5); gradients max |err| / max |reference| <= 5e-3, the slack for ReLU kinks (a pre-activation within rounding
+of zero lands on either side in Dr.Jit's FMAs and torch's GEMMs, and that sample's gradient changes by a finite
+step; bugs give 1e-2 and more); central differences (eps 1e-2, the 3 largest-gradient entries of every parameter
+no ReLU follows, 3 rays x 8 samples) within 2e-2 x max(|grad|, |fd|, 10 % of the tensor's largest gradient).
+Weights: the field's initialisation plus N(0, 0.3) noise on grid values and hash tables (they start constant or
+near zero); networks keep theirs, since noise there puts pre-activations within the step of their kinks.
 """
 
 from __future__ import annotations
@@ -68,29 +57,9 @@ TORCH_NAMES = {"density_grid": "density", "color_grid": "color", "density_table"
 
 
 @dataclass
-class ParityCase:
-    """One check: a small field of one family, its rays and samples."""
-
-    field: str = "vanilla"
-    """Field family (a key of ``FIELD_ARGS``)."""
-    dim: int = 2
-    """2 or 3."""
-    rays: int = 64
-    """Rays pushed through every path."""
-    samples: int = 32
-    """Coarse samples per ray."""
-    fine: int = 16
-    """Fine samples per ray (0: no fine pass)."""
-    width: int = 16
-    """Width of the MLP (``vanilla`` only)."""
-    seed: int = 0
-    """Seed of the weights' noise, the rays and the cotangents."""
-
-
-@dataclass
 class Parity:
-    """Every path's error per quantity: values against torch (max abs), gradients against plain AD
-    (max abs / max |reference|), and the custom op against central differences (worst relative)."""
+    """Per quantity, each path's error: values against torch (max abs), gradients against plain AD (max abs / max
+    |reference|); the custom op's worst relative error against central differences."""
 
     paths: list[str]
     values: dict[str, list[float]]
@@ -101,14 +70,6 @@ class Parity:
     def ok(self) -> bool:
         return (all(e <= (TOL_DEPTH if "depth" in k else TOL_VALUE) for k, es in self.values.items() for e in es)
                 and all(e <= TOL_GRAD for es in self.grads.values() for e in es) and self.fd <= TOL_FD)
-
-    def lines(self) -> list[str]:
-        """The table of errors and the finite-difference line."""
-        out = [f"{'quantity':<22}" + "".join(f"{k:>28}" for k in self.paths)]
-        out += [f"{k:<22}" + "".join(f"{e:>19.2e} abs     " for e in es) for k, es in self.values.items()]
-        out += [f"d/d {k:<18}" + "".join(f"{e:>19.2e} rel     " for e in es) for k, es in self.grads.items()]
-        return out + [f"finite differences (custom op vs central, fp32): worst relative error {self.fd:.2e} "
-                      f"(tolerance {TOL_FD:g})"]
 
 
 def make_rays(dim: int, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -227,23 +188,23 @@ def finite_differences(field: str, dim: int, seed: int = 0) -> float:
     return worst
 
 
-def check_parity(case: ParityCase) -> Parity:
-    """Every path of ``case.field`` and the torch twin on the same weights, rays and cotangents."""
-    field_args = {**FIELD_ARGS[case.field], **({"width": case.width} if case.field == "vanilla" else {})}
-    mc = ModelConfig(case.field, field_args, RenderConfig(n_coarse=case.samples, n_fine=case.fine,
-                                                          background=(0.2, 0.3, 0.4)))
-    model = build_model(mc, case.dim, 1.5)
-    weights = noisy(model.to_numpy(model.init_params(case.seed)), np.random.default_rng(case.seed))
-    o, d = make_rays(case.dim, case.rays, case.seed)
-    rng = np.random.default_rng(case.seed + 1)
-    cot = {g: {"rgb": rng.normal(size=(case.rays, 3)).astype(np.float32),
-               "depth": rng.normal(size=case.rays).astype(np.float32) * 0.1,
-               "opacity": rng.normal(size=case.rays).astype(np.float32)}
-           for g in (["coarse", "fine"] if case.fine else ["coarse"])}
-    runs = {label: run_drjit(mc, weights, o, d, cot, mode, method, 7) for label, mode, method in PATHS[case.field]}
+def check_parity(field: str = "vanilla", dim: int = 2, rays: int = 64, samples: int = 32, fine: int = 16,
+                 width: int = 16, seed: int = 0) -> Parity:
+    """Every path of ``field`` (``dim`` D; the MLP ``width`` wide) and the torch twin on the same weights, ``rays``
+    rays of ``samples`` coarse and ``fine`` fine samples (0: no fine pass) and cotangents, drawn from ``seed``."""
+    mc = ModelConfig(field, {**FIELD_ARGS[field], **({"width": width} if field == "vanilla" else {})},
+                     RenderConfig(n_coarse=samples, n_fine=fine, background=(0.2, 0.3, 0.4)))
+    model = build_model(mc, dim, 1.5)
+    weights = noisy(model.to_numpy(model.init_params(seed)), np.random.default_rng(seed))
+    o, d = make_rays(dim, rays, seed)
+    rng = np.random.default_rng(seed + 1)
+    cot = {g: {"rgb": rng.normal(size=(rays, 3)).astype(np.float32),
+               "depth": rng.normal(size=rays).astype(np.float32) * 0.1,
+               "opacity": rng.normal(size=rays).astype(np.float32)} for g in (["coarse", "fine"] if fine else ["coarse"])}
+    runs = {label: run_drjit(mc, weights, o, d, cot, mode, method, 7) for label, mode, method in PATHS[field]}
     runs["torch"] = run_torch(mc, weights, o, d, cot, 7)
     ref_vals, ref_grads = runs["torch"][0], runs["drjit plain AD"][1]
     values = {k: [float(np.abs(r[0][k] - v).max()) for r in runs.values()] for k, v in ref_vals.items()}
     grads = {k: [float(np.abs(r[1][k].ravel() - v.ravel()).max()) / (float(np.abs(v).max()) + 1e-12)
                  for r in runs.values()] for k, v in ref_grads.items()}
-    return Parity(list(runs), values, grads, finite_differences(case.field, case.dim, case.seed))
+    return Parity(list(runs), values, grads, finite_differences(field, dim, seed))
