@@ -39,9 +39,10 @@ def main(argv=None) -> int:
                              args.spp)
         passed = c["psnr"] >= args.min_psnr and c["depth_error"] <= args.depth_tol and c["masks_equal"]
         ok &= passed
+        masks, (ta, tb) = "equal" if c["masks_equal"] else "DIFFER", c["seconds"]
         print(f"{name:>15}: colour PSNR {c['psnr']:6.1f} dB (max |diff| {c['max_diff']:.2e}), depth max |diff| "
-              f"{c['depth_error']:.2e}, masks {'equal' if c['masks_equal'] else 'DIFFER'}; scalar {c['seconds'][0]:.2f} "
-              f"s, llvm {c['seconds'][1]:.2f} s  {'ok' if passed else 'FAIL'}")
+              f"{c['depth_error']:.2e}, masks {masks}; scalar {ta:.2f} s, llvm {tb:.2f} s  "
+              + ("ok" if passed else "FAIL"))
     print("check_renderers: PASS" if ok else "check_renderers: FAIL")
     return 0 if ok else 1
 

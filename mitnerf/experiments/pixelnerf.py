@@ -103,7 +103,8 @@ def panels(rows: list[dict]) -> list[dict]:
     s = summarise([{**r, "panel": r["scene"] if r["group"] == "eval" else r["group"]} for r in rows],
                   ["panel", "method", "k"], ("psnr",))
     return [dict(title=f"pixelNeRF: {p}", rows=[r for r in s if r["panel"] == p], x="k", by=("method",),
-                 xlabel="input views k", xticks=sorted({r["k"] for r in s})) for p in dict.fromkeys(r["panel"] for r in s)]
+                 xlabel="input views k", xticks=sorted({r["k"] for r in s}))
+            for p in dict.fromkeys(r["panel"] for r in s)]
 
 
 def run(cfg: Config, out: Path) -> list[dict]:
@@ -179,8 +180,9 @@ def _write(cfg, rows, trainers, methods, out) -> None:
     ev = {(s["scene"], s["method"], s["k"]): s for s in summary if s["group"] == "eval"}
     table = [{"scene": n, "method": m, **{f"k={k}": mean_std(ev[(n, m, k)], "psnr") for k in cfg.ks}}
              for n in cfg.eval_scenes for m in methods]
-    diff = [{"scene": n, "pixelNeRF - NeRF": m, **{f"k={k}": f"{ev[(n, m, k)]['psnr'] - ev[(n, 'NeRF', k)]['psnr']:+.2f}"
-                                                   for k in cfg.ks}} for n in cfg.eval_scenes for m in methods[:-1]]
+    diff = [{"scene": n, "pixelNeRF - NeRF": m, **{f"k={k}": format(ev[(n, m, k)]["psnr"] - ev[(n, "NeRF", k)]["psnr"],
+                                                                   "+.2f") for k in cfg.ks}}
+            for n in cfg.eval_scenes for m in methods[:-1]]
     gen = [{"method": m, "scenes": g, **{f"k={k}": mean_std(s, "psnr") for k in cfg.ks
                                          for s in summary if s["method"] == m and s["group"] == g and s["k"] == k}}
            for m in methods[:-1] for g in ("seen outline", "unseen outline")]

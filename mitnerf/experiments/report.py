@@ -55,15 +55,16 @@ def summarise(rows: list[dict], by: list[str], metrics=("psnr", "ssim")) -> list
     out = []
     for key, rs in groups.items():
         ok = [r for r in rs if r.get("status") == "ok"]
-        row = {**dict(zip(by, key)), "runs": len(rs), "failed": len(rs) - len(ok), "failure_rate": 1 - len(ok) / len(rs),
-               "failures": "; ".join(sorted({str(r.get("reason")).split(";")[0].split(" (")[0] for r in rs
-                                             if r.get("status") != "ok"})) or "-"}
+        why = sorted({str(r.get("reason")).split(";")[0].split(" (")[0] for r in rs if r.get("status") != "ok"})
+        row = {**dict(zip(by, key)), "runs": len(rs), "failed": len(rs) - len(ok),
+               "failure_rate": 1 - len(ok) / len(rs), "failures": "; ".join(why) or "-"}
         for m in metrics:
             vals = np.array([num(r.get(m)) for r in ok])
             vals = vals[np.isfinite(vals)]
             stats = ((vals.mean(), vals.std(), vals.min(), vals.max(), *np.percentile(vals, [50, 10, 90])) if vals.size
                      else (math.nan,) * 7)
-            row.update({m + k: float(v) for k, v in zip(("", "_std", "_min", "_max", "_median", "_p10", "_p90"), stats)})
+            row.update({m + k: float(v) for k, v in zip(("", "_std", "_min", "_max", "_median", "_p10", "_p90"),
+                                                        stats)})
         out.append(row)
     return out
 

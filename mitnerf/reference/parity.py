@@ -200,7 +200,8 @@ def check_parity(field: str = "vanilla", dim: int = 2, rays: int = 64, samples: 
     rng = np.random.default_rng(seed + 1)
     cot = {g: {"rgb": rng.normal(size=(rays, 3)).astype(np.float32),
                "depth": rng.normal(size=rays).astype(np.float32) * 0.1,
-               "opacity": rng.normal(size=rays).astype(np.float32)} for g in (["coarse", "fine"] if fine else ["coarse"])}
+               "opacity": rng.normal(size=rays).astype(np.float32)}
+           for g in (["coarse", "fine"] if fine else ["coarse"])}
     runs = {label: run_drjit(mc, weights, o, d, cot, mode, method, 7) for label, mode, method in PATHS[field]}
     runs["torch"] = run_torch(mc, weights, o, d, cot, 7)
     ref_vals, ref_grads = runs["torch"][0], runs["drjit plain AD"][1]

@@ -178,6 +178,7 @@ def compare_variants(load, frames: np.ndarray, fov: float, height: int, width: i
         out.append((rgb, *exact_depth(scene, origins, dirs), time.perf_counter() - t0))
     (a, da, ma, ta), (b, db, mb, tb) = out
     hit = ma & mb
-    return {"psnr": float(10 * np.log10(1.0 / max(np.mean((a - b) ** 2), 1e-20))), "max_diff": float(np.abs(a - b).max()),
+    return {"psnr": float(10 * np.log10(1.0 / max(np.mean((a - b) ** 2), 1e-20))),
+            "max_diff": float(np.abs(a - b).max()),
             "depth_error": float(np.abs(da[hit] - db[hit]).max()) if hit.any() else 0.0,
             "masks_equal": bool(np.array_equal(ma, mb)), "seconds": (ta, tb)}
