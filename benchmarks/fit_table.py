@@ -25,13 +25,17 @@ import argparse
 import sys
 import time
 
-from _common import warm_kernels   # (importing _common chooses the Mitsuba variant)
 from mitnerf.data.cache import cached_dataset
 from mitnerf.data.rig import RigConfig, noise_preset
 from mitnerf.results import load_results, record_result
 from mitnerf.train.auto import AutoConfig, choose_recipe, regulariser_weights
 from mitnerf.train.fit import fit_and_evaluate
 from mitnerf.train.recipes import recipe_for
+
+if __package__:                        # imported as benchmarks.fit_table (the tests)
+    from ._common import warm_kernels
+else:                                  # run as python benchmarks/fit_table.py
+    from _common import warm_kernels   # (importing _common chooses the Mitsuba variant)
 
 DEPTH_LOSSES = ("free_space_weight", "solid_weight")
 

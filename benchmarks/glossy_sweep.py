@@ -39,11 +39,15 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from fit_table import dataset, joined, longer, row   # (fit_table imports _common, which chooses the Mitsuba variant)
 from mitnerf.results import load_results, record_result
 from mitnerf.scenes.polygon import Polygon
 from mitnerf.train.metrics import psnr
 from mitnerf.train.recipes import recipe_for
+
+if __package__:                        # imported as benchmarks.glossy_sweep (the tests)
+    from .fit_table import dataset, joined, longer, row
+else:                                  # run as python benchmarks/glossy_sweep.py
+    from fit_table import dataset, joined, longer, row   # (fit_table imports _common: the Mitsuba variant)
 
 FAMILIES = ("grid", "hashlinear")
 DEGREES = (0, 1, 2, 4, 8, 12, 16)

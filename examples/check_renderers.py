@@ -1,9 +1,8 @@
-"""Cross-check the ground truth: render the same views with Mitsuba's ``scalar_rgb``
-and ``llvm_ad_rgb`` variants and compare colour, depth and mask.
+"""Cross-check the ground truth: render the same views with Mitsuba's ``scalar_rgb`` and ``llvm_ad_rgb``
+variants and compare colour, depth and mask (:func:`mitnerf.scenes.gt_render.compare_variants`).
 
-The variants draw different sample sequences, so colour is compared as PSNR between
-two converged renders (both >= 50 dB against 4x their samples); depth and mask come
-from the same pixel-centre rays and must agree to float precision.
+The variants draw different sample sequences, so colour is compared as PSNR between two converged
+renders; depth and mask come from the same pixel-centre rays and must agree to float precision.
 
     python examples/check_renderers.py [--scenes bunny vase] [--views 6] [--resolution 24]
 
@@ -14,25 +13,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 
-import mitsuba as mi
-import numpy as np
-
-import mitnerf
-from mitnerf.data.generate import render_cameras
 from mitnerf.data.rig import RigConfig, make_rig
-from mitnerf.scenes.gt_render import RenderSettings
+from mitnerf.scenes.gt_render import compare_variants
 from mitnerf.scenes.registry import get_scene
-
-
-def render(variant: str, scene_name: str, cams, spp: int):
-    mitnerf.set_variant(variant)
-    mi.set_log_level(mi.LogLevel.Error)   # scalar mode warns that Python integrators are slow
-    scene = get_scene(scene_name).load()
-    t0 = time.perf_counter()
-    views = render_cameras(scene, cams, RenderSettings(spp=spp))
-    return views, time.perf_counter() - t0
 
 
 def main(argv=None) -> int:
@@ -47,21 +31,18 @@ def main(argv=None) -> int:
 
     ok = True
     for name in args.scenes:
-        dim = 2 if get_scene(name).kind == "2d" else 3
-        res = args.resolution * (4 if dim == 2 else 1)
-        cams = make_rig(RigConfig(dim=dim, n_train=args.views, n_val=0, n_test=0, resolution=res,
-                                  radius_std=0.1, angle_std=2, seed=1)).train
-        a, ta = render("scalar_rgb", name, cams, args.spp)
-        b, tb = render("llvm_ad_rgb", name, cams, args.spp)
-        psnr = 10 * np.log10(1.0 / max(np.mean((a.linear - b.linear) ** 2), 1e-20))
-        hit = a.mask & b.mask
-        depth_err = float(np.abs(a.depth[hit] - b.depth[hit]).max()) if hit.any() else 0.0
-        mask_same = bool(np.array_equal(a.mask, b.mask))
-        passed = psnr >= args.min_psnr and depth_err <= args.depth_tol and mask_same
+        scene = get_scene(name)
+        dim = 2 if scene.kind == "2d" else 3
+        cams = make_rig(RigConfig(dim=dim, n_train=args.views, n_val=0, n_test=0, resolution=args.resolution *
+                                  (4 if dim == 2 else 1), radius_std=0.1, angle_std=2, seed=1)).train
+        c = compare_variants(scene.load, cams.mitsuba_frames(), cams.fov, cams.height, cams.width, *cams.rays(),
+                             args.spp)
+        passed = c["psnr"] >= args.min_psnr and c["depth_error"] <= args.depth_tol and c["masks_equal"]
         ok &= passed
-        print(f"{name:>15}: colour PSNR {psnr:6.1f} dB (max |diff| {np.abs(a.linear - b.linear).max():.2e}), "
-              f"depth max |diff| {depth_err:.2e}, masks {'equal' if mask_same else 'DIFFER'}; "
-              f"scalar {ta:.2f} s, llvm {tb:.2f} s  {'ok' if passed else 'FAIL'}")
+        masks, (ta, tb) = "equal" if c["masks_equal"] else "DIFFER", c["seconds"]
+        print(f"{name:>15}: colour PSNR {c['psnr']:6.1f} dB (max |diff| {c['max_diff']:.2e}), depth max |diff| "
+              f"{c['depth_error']:.2e}, masks {masks}; scalar {ta:.2f} s, llvm {tb:.2f} s  "
+              + ("ok" if passed else "FAIL"))
     print("check_renderers: PASS" if ok else "check_renderers: FAIL")
     return 0 if ok else 1
 

@@ -1,15 +1,11 @@
 """The benchmark scripts' bookkeeping (what they record, and what a rerun keeps), with the fits faked: the figures
 themselves are measured by running the scripts, never here."""
 
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-
-from mitnerf.results import load_results, record_result  # noqa: E402
+from mitnerf.results import load_results, record_result
 
 
 def fake_row(ds, recipe, label, extra_time=0.0):
@@ -29,7 +25,7 @@ def results(tmp_path, monkeypatch):
 @pytest.fixture
 def fit_table(monkeypatch):
     """The fit table script with its datasets and fits faked."""
-    import fit_table
+    from benchmarks import fit_table
 
     monkeypatch.setattr(fit_table, "dataset", lambda scene, dim: SimpleNamespace(dim=dim))
     monkeypatch.setattr(fit_table, "row", fake_row)
@@ -62,7 +58,7 @@ def test_fit_table_marks_each_3d_recipe_among_its_option_sets(results, fit_table
 
 
 def test_glossy_sweep_keeps_the_rows_of_roughnesses_not_rerun(results):
-    import glossy_sweep
+    from benchmarks import glossy_sweep
 
     record_result("glossy/3d", {"0.12": {"grid": 1}, "0.3": {"grid": 2}}, "old", "python benchmarks/glossy_sweep.py")
     rows, command = glossy_sweep.merged("glossy/3d", {"0.25": {"grid": 3}, "0.3": {"grid": 4}},

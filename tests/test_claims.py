@@ -1,4 +1,5 @@
-"""The reproduction report: quotes are verbatim, judges read rows as worked out by hand here."""
+"""Every verdict: quotes are verbatim, each claim's judge passes and fails rows worked out by hand here, the sweep's
+goal and the stability findings likewise; a quick report judges nothing; the reproduction report."""
 
 import json
 import re
@@ -6,7 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from mitnerf.experiments.claims import CLAIMS, NOT, PARTLY, REPRODUCED, SOURCES
+from mitnerf.experiments.claims import (CLAIMS, MISSING, NOT, PARTLY, REPRODUCED, SOURCES, judged, reference_verdict,
+                                       stability_findings, verdict)
+from mitnerf.experiments.report import SMOKE, write_report
 from mitnerf.experiments.reproduction import document, record
 from mitnerf.experiments.window_shop import COMBINATIONS
 
@@ -34,6 +37,106 @@ def table2_rows(obj="brick", shift=0.0):
     return [{"object": obj, "table": "report", "row": str(i), "images": im, "L": L, "N_c": nc,
              "view_dependence": vd, "psnr": p + shift, "ssim": 0.8, "steps": 2000, "train_time": 100.0 * nc / 64,
              "status": "ok"} for i, (im, L, nc, vd, p) in COMBINATIONS.items()]
+
+
+def pe(psnr8=32.0, seconds=20.0):
+    """The PE experiment's rows: L = 0, 1, 8 at 24, 25 and ``psnr8`` dB, ``seconds`` of training each."""
+    return [{"L": L, "seed": 0, "psnr": p, "ssim": 0.9, "iou": 0.9, "train_time": seconds, "steps": 1000,
+             "status": "ok"} for L, p in ((0, 24.0), (1, 25.0), (8, psnr8))]
+
+
+def depth(ds_iou=0.9, ds_error=0.1):
+    """NeRF and DS-NeRF on square_concave and tu from 2 and 10 views. NeRF: 20 dB, IoU 0.5, depth error 0.3;
+    DS-NeRF: 20 + 15 / views dB (+7.5 at 2 views, +1.5 at 10), IoU ``ds_iou``, depth error ``ds_error``."""
+    return [{"scene": sc, "views": v, "method": m, "status": "ok", "psnr": 20 + (15 / v if m == "DS-NeRF" else 0),
+             "depth_error": ds_error if m == "DS-NeRF" else 0.3, "iou": ds_iou if m == "DS-NeRF" else 0.5}
+            for sc in ("square_concave", "tu") for v in (2, 10) for m in ("NeRF", "DS-NeRF")]
+
+
+def pix(ahead1, ahead9):
+    """pixelNeRF against NeRF on bunny: NeRF 12 dB from 1 view, 22 from 9; pixelNeRF ``ahead1`` / ``ahead9`` dB more."""
+    return [{"group": "eval", "scene": "bunny", "method": m, "k": k, "status": "ok", "ssim": 0.5,
+             "psnr": p + (d if m == "pixelNeRF" else 0)} for k, p, d in ((1, 12.0, ahead1), (9, 22.0, ahead9))
+            for m in ("NeRF", "pixelNeRF")]
+
+
+def ws(psnr=None, add=None, seconds=100.0):
+    """Table 2 (brick) with the PSNR of the rows in ``psnr`` changed, our additions ``add`` ({label: PSNR}), and
+    ``seconds`` per 2000 steps at N_c = 64 (twice at 128)."""
+    rows = [{**r, "psnr": (psnr or {}).get(r["row"], r["psnr"]), "train_time": seconds * r["N_c"] / 64}
+            for r in table2_rows()]
+    return rows + [{"object": "brick", "table": "additions", "row": k, "psnr": v} for k, v in (add or {}).items()]
+
+
+CASES = {   # claim: (rows it stands on, rows it does not)
+    "nerf2d-speed": (pe(), pe(seconds=90.0)),                     # 20 s < 60 s; 90 s is not
+    "pe-low": (pe(), pe(psnr8=25.5)),                             # L = 1 -> 8: +7.0 dB > 1 dB; +0.5 dB is not
+    "pe-trend": (pe(), pe(psnr8=25.5)),
+    # DS-NeRF ahead in depth error in 4/4 cells, PSNR 4/4, the gain largest at 2 views; behind in depth in 0/4 < 2
+    "ds-sparse": (depth(), depth(ds_error=0.5)),
+    "ds-concave": (depth(), depth(ds_iou=0.4)),                   # IoU 0.5 -> 0.9 in both cells; 0.5 -> 0.4 in none
+    "ds-tu": (depth(), depth(ds_iou=0.4)),
+    "pixelnerf": (pix(3.0, -4.0), pix(-1.0, -4.0)),               # ahead at 1 view, behind at 9; behind at both
+    "ws-speed": (ws(), ws(seconds=1000.0)),                       # 0.05 (0.1) s per step <= 0.25; 0.5 (1.0) is not
+    "ws-iters": (ws(add={"9, twice the steps": 24.5}), ws(add={"9, twice the steps": 26.0})),   # +0.5; +2.0 dB
+    "ws-views": (ws({"1": 26.0}), ws()),                          # 23.0 < 25.0 < 26.0; theirs: 23.0, 25.0, 23.5
+    "ws-flat": (ws(), ws({"7": 20.0})),                           # spread 25.0 - 23.0 = 2.0 <= 3; 25.0 - 20.0 = 5.0
+    "ws-best": (ws(), ws({"7": 25.0})),                           # 9 (24.0) is best; 24.0 < 25.0 (7) - 0.5
+    "ws-nc": (ws(), ws({"8": 23.0, "10": 24.0})),                 # 7 -> 8: 23.0 -> 15.0 (-8.0); 23.0 -> 23.0
+    # fine pass +0.3 dB on 9 (24.0), -0.3 dB on 5 (23.8): both under 1 dB; -2.0 dB on 9 is not
+    "ws-hierarchical": (ws(add={"fine pass, 5 images": 24.3, "fine pass, 25 images": 23.5}),
+                        ws(add={"fine pass, 5 images": 22.0, "fine pass, 25 images": 23.5})),
+    "ws-view-dependence": (ws(add={"6, view dependence on": 23.5}),    # 23.5 - 22.5 = +1.0 > 0.3 dB
+                           ws(add={"6, view dependence on": 22.6})),   # +0.1 dB is not
+}
+
+
+def test_every_claim_has_rows_that_pass_and_rows_that_fail():
+    assert set(CASES) == {c.key for c in CLAIMS}
+
+
+@pytest.mark.parametrize("key", list(CASES))
+def test_each_claims_judge_on_rows_that_pass_and_rows_that_fail(key):
+    good, bad = CASES[key]
+    assert verdict(by_key(key), good)[1].startswith(REPRODUCED), verdict(by_key(key), good)
+    assert verdict(by_key(key), bad)[1].startswith(NOT), verdict(by_key(key), bad)
+
+
+def test_a_claim_without_its_rows_is_not_run():
+    assert verdict(by_key("pe-trend"), None) == ("-", f"{MISSING} (`mitnerf experiment pe`)")
+    assert verdict(by_key("pe-trend"), [{"psnr": 20.0}]) == ("-", f"{MISSING}: the recorded rows lack 'L'")
+
+
+def test_the_sweeps_goal():
+    base = dict(scene="bunny", family="vanilla", size="w32", samples=32, backend="drjit", status="ok")
+    ref = dict(base, id="R", reference="True", backend="torch", budget="600s", wall_time=600.0, psnr=30.0)
+    fast = dict(base, id="a", reference="False", budget="2s", wall_time=5.0, psnr=30.5)   # 120x faster
+    slow = dict(base, id="b", reference="False", budget="20s", wall_time=25.0, psnr=31.0)
+    assert "(120x faster): **PASSED**" in reference_verdict([ref, slow, fast])
+    assert "NOT PASSED" in reference_verdict([ref, dict(fast, wall_time=7.0)])       # 7 s > 600 s / 100
+    assert "no run reaches it: **NOT PASSED**" in reference_verdict([ref, dict(fast, psnr=29.0)])
+    assert "No torch reference" in reference_verdict([fast])
+
+
+def test_the_stability_findings():
+    rows = [{"method": "NeRF (defaults)", "status": "ok", "psnr": p, "reason": ""} for p in (20.0, 21.0, 22.0)]
+    rows += [{"method": "NeRF, ReLU + bias 0, no warm-up", "status": s, "psnr": p, "reason": why}
+             for s, p, why in (("nan", 9.0, "NaN loss (step 12); last weights kept"), ("collapsed", 8.0,
+                                                                                          "empty renders"),
+                               ("ok", 19.0, ""))]
+    text = stability_findings(rows)
+    # ReLU: 2 of 3 failed, their reasons before any detail; the defaults: none of 3
+    assert "2/3 runs failed (NaN loss; empty renders)" in text and "with the defaults" in text and "0/3." in text
+
+
+def test_a_quick_report_says_it_is_a_smoke_run_and_judges_nothing(tmp_path):
+    write_report(tmp_path, "PE", [("Results", "| L |")], False, lambda: judged("pe", pe()))
+    text = (tmp_path / "report.md").read_text()
+    assert SMOKE not in text and "| reproduced: +7.0 dB from L = 1 to the best, L = 8 |" in text
+    write_report(tmp_path, "PE", [("Results", "| L |")], True, lambda: judged("pe", pe()))
+    text = (tmp_path / "report.md").read_text()
+    assert text.startswith(f"# PE\n\n## Smoke run\n\n{SMOKE}\n") and "| L |" in text
+    assert "reproduced" not in text and "claim" not in text
 
 
 def test_every_quote_is_verbatim_in_its_report():

@@ -4,7 +4,10 @@ import pytest
 
 from mitnerf.cli import main
 from mitnerf.experiments import EXPERIMENTS
-from mitnerf.experiments.report import read_csv, summarise
+from mitnerf.experiments.report import SMOKE, read_csv, summarise
+
+JUDGED = ("reproduced", "partly", "passed", "claim", "rise", "failure modes", "finding")
+"""Words of the judged sections (the claims' verdicts, the stability findings, the sweep's goal)."""
 
 FILES = {
     "pe": ["pe.csv", "pe_psnr.png", "pe_density.png", "pe_views.png"],
@@ -24,6 +27,9 @@ def test_quick_mode_writes_its_files(name, tmp_path):
         if f.endswith(".png"):
             assert f"({f})" in text, f"{f} is not embedded in the report"
     assert "| " in text                      # a markdown table
+    # a smoke run says so on top and judges nothing: no claim, verdict or finding
+    assert text.index(SMOKE) < text.index("| ")
+    assert not [w for w in JUDGED if w in text.lower()], text
     rows = read_csv(tmp_path / FILES[name][0])
     assert len(rows) >= 2 and all(r["status"] in ("ok", "collapsed", "nan") for r in rows)
 

@@ -1,8 +1,5 @@
 """Grid and hash-grid fields, empty-space skipping, and auto-sizing."""
 
-import sys
-from pathlib import Path
-
 import drjit as dr
 import numpy as np
 import pytest
@@ -11,8 +8,6 @@ from drjit.auto.ad import Float, UInt32
 from mitnerf.fields.grid import GridConfig, GridField
 from mitnerf.fields.hashenc import hash_encode, hash_layout
 from mitnerf.render.occupancy import OccupancyConfig, OccupancyGrid, OccupiedSampler, cell_index
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 
 
 @pytest.mark.parametrize("dim, levels, log2_T, base, scale", [(2, 12, 12, 8, 1.5), (3, 6, 14, 16, 1.7)])
@@ -167,7 +162,6 @@ def test_auto_keeps_what_the_user_typed():
 @pytest.mark.parametrize("field, dim", [("grid", 2), ("grid", 3), ("hashgrid", 2), ("hashgrid", 3), ("hashlinear", 2),
                                         ("hashlinear", 3)])
 def test_grid_fields_pass_the_backend_checks(field, dim):
-    import check_backends
+    from mitnerf.reference.parity import check_parity
 
-    assert check_backends.main(["--field", field, "--dim", str(dim), "--rays", "24", "--samples", "12",
-                                "--fine", "8" if dim == 2 else "0"]) == 0
+    assert check_parity(field, dim, rays=24, samples=12, fine=8 if dim == 2 else 0).ok

@@ -2,6 +2,7 @@
 supervision, a fine pass or the occupancy grid), checkpoints reload exactly, and what
 stops a run says why."""
 
+import dataclasses
 import subprocess
 import sys
 
@@ -171,12 +172,22 @@ def test_sigint_then_resume_lands_where_an_uninterrupted_run_does(bunny_small, t
     assert abs(psnr(again.stdout) - psnr(whole.stdout)) <= 0.1, (again.stdout, whole.stdout)
 
 
-def test_check_backends_script_passes():
-    sys.path.insert(0, str(ROOT / "examples"))
-    import check_backends
+def test_parity_holds_within_each_tolerance_and_fails_past_it():
+    from mitnerf.reference.parity import Parity
 
-    assert check_backends.main(["--rays", "24", "--samples", "16", "--fine", "8", "--width", "8"]) == 0
-    assert check_backends.main(["--dim", "3", "--rays", "16", "--samples", "12", "--fine", "0", "--width", "8"]) == 0
+    # values 1e-5 abs (depths 5e-5), gradients 5e-3 relative, finite differences 2e-2
+    ok = Parity(["custom op", "torch"], {"coarse colour": [9e-6, 0.0], "coarse depth": [4e-5, 0.0]},
+                {"sigma": [4e-3, 0.0]}, 1e-2)
+    assert ok.ok
+    for bad in (dict(values={"coarse colour": [2e-5, 0.0]}), dict(grads={"sigma": [0.0, 6e-3]}), dict(fd=3e-2)):
+        assert not dataclasses.replace(ok, **bad).ok, bad
+
+
+def test_the_mlp_paths_agree_with_the_torch_twin():
+    from mitnerf.reference.parity import check_parity
+
+    assert check_parity(rays=24, samples=16, fine=8, width=8).ok
+    assert check_parity(dim=3, rays=16, samples=12, fine=0, width=8).ok
 
 
 def first_loss(ds, **overrides) -> float:

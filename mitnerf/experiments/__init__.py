@@ -1,5 +1,7 @@
-"""Experiments, one module each: ``Config`` (a dataclass), ``quick(seed)`` (about a minute) and
-``run(cfg, out) -> rows``, which also writes CSV files, figures and ``report.md`` into ``out``."""
+"""Experiments, one module each: ``Config`` (a dataclass; ``quick=True``: a smoke run that judges nothing),
+``quick(seed)`` (about a minute) and ``run(cfg, out) -> rows``, which fits, writes the CSV, draws with
+:mod:`mitnerf.viz` and writes ``report.md``, its verdicts from :mod:`.claims`; those ``REPRODUCTION.md`` charts also
+give ``panels(rows)``."""
 
 from __future__ import annotations
 

@@ -1,8 +1,10 @@
-"""The claims of the two source reports, each with the figure of ours that tests it.
+"""Every verdict drawn from our rows: the claims of the two source reports, the stability findings, the sweep's
+goal. The experiments return rows and draw figures; only this module judges, and the experiments' reports and
+``REPRODUCTION.md`` both quote it.
 
-Every :class:`Claim` quotes its report verbatim and judges the rows recorded for one experiment of
-ours (``results.json``, key ``experiment/<name>``). Sources: ``nerf2d``, the NeRF2D blog post;
-``window-shop``, Zhengxun Wu, "Online Window Shopping with NeRF" (Stanford CS231n).
+Every :class:`Claim` quotes its report verbatim and judges the rows of one experiment of ours (as run, or as
+recorded in ``results.json`` under ``experiment/<name>``) in one function, its ``judge``. Sources: ``nerf2d``, the
+NeRF2D blog post; ``window-shop``, Zhengxun Wu, "Online Window Shopping with NeRF" (Stanford CS231n).
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-from .report import num, summarise
+from .report import is_reference, markdown_table, num, pareto_front, summarise
 
 SOURCES = {
     "nerf2d": ("Scaling Down NeRF with NeRF2D (blog post, PyTorch Lightning, laptop GPU)",
@@ -300,3 +302,79 @@ CLAIMS = [
           "combination 6 with view dependence switched on; judged as: more than 0.3 dB gain"),
 ]
 """Every claim with a figure or a trend in the two reports."""
+
+
+def verdict(claim: Claim, rows: list[dict] | None) -> tuple[str, str]:
+    """(our figure, whether ``claim`` stands) from the rows of its experiment; ``MISSING`` where there are none or
+    they lack what the judge reads."""
+    if not rows:
+        return "-", f"{MISSING} (`mitnerf experiment {claim.experiment}`)"
+    try:
+        return claim.judge(rows)
+    except (KeyError, ValueError, ZeroDivisionError) as e:
+        return "-", f"{MISSING}: the recorded rows lack {e}"
+
+
+def claims_table(claims: list[Claim], rows_of: Callable[[str], list[dict] | None]) -> str:
+    """The claims with the report's figure and ours and the verdict; ``rows_of(experiment)`` gives the rows."""
+    rows = []
+    for c in claims:
+        ours, stands = verdict(c, rows_of(c.experiment))
+        rows.append({"claim": f"\"{c.quote}\" ({c.where})", "theirs": c.theirs, "ours": ours, "stands": stands,
+                     "run": f"`{c.experiment}`", "deviations, judged as": c.deviations})
+    return markdown_table(rows)
+
+
+def stability_findings(rows: list[dict]) -> str:
+    """What switching each safeguard off does to the runs of the stability experiment."""
+    by = {s["method"]: s for s in summarise(rows, ["method"], ("psnr",))}
+    base, relu = by.get("NeRF (defaults)"), by.get("NeRF, ReLU + bias 0, no warm-up")
+    near = by.get("NeRF, near plane at the camera")
+    lines = ["- **Dead density.** With ReLU, a zero density bias and no warm-up, "
+             f"{relu['failed']}/{relu['runs']} runs failed ({relu['failures']}); with the defaults (softplus density, "
+             f"which always has a gradient; a -1 density bias; a 50-step warm-up) {base['failed']}/{base['runs']}."
+             ] if base and relu else []
+    lines += [f"- **Floaters in front of the cameras.** With the near plane 5 cm in front of the cameras the median "
+              f"test PSNR is {near['psnr_median']:.2f} dB against {base['psnr_median']:.2f} dB with the near plane at "
+              "the object's bounding circle (the datasets' default)."] if base and near else []
+    return "\n".join(lines + [f"- **{s['method']}**: {s['failed']}/{s['runs']} failed; median {s['psnr_median']:.2f} "
+                              f"dB (10-90 %: {s['psnr_p10']:.2f}-{s['psnr_p90']:.2f})." for label, s in by.items()
+                              if label in ("DS-NeRF (defaults)", "grid (defaults)")])
+
+
+SPEEDUP = 100
+"""The sweep's goal: the torch reference's test PSNR in 1/SPEEDUP of its wall time."""
+
+
+def reference_verdict(rows: list[dict]) -> str:
+    """Whether some run of the sweep reaches the torch reference's test PSNR in 1/:data:`SPEEDUP` of its wall time."""
+    ref = next((r for r in rows if is_reference(r) and r["status"] == "ok"), None)
+    if ref is None:
+        return "No torch reference in this sweep.\n"
+    others = pareto_front([r for r in rows if r["scene"] == ref["scene"] and not is_reference(r)])
+    limit = num(ref["wall_time"]) / SPEEDUP
+    reach = [r for r in others if num(r["psnr"]) >= num(ref["psnr"])]
+    name = lambda r: f"{r['family']} {r['size']} s{r['samples']} {r['backend']} {r['budget']}"
+    text = (f"Torch reference ({name(ref)}, {ref['scene']}): {num(ref['psnr']):.2f} dB in "
+            f"{num(ref['wall_time']):.1f} s; the goal is that PSNR in at most {limit:.2f} s.\n\n")
+    if reach:
+        f = reach[0]
+        text += (f"- fastest run reaching it: {name(f)}, {num(f['psnr']):.2f} dB in {num(f['wall_time']):.2f} s "
+                 f"({num(ref['wall_time']) / num(f['wall_time']):.0f}x faster): "
+                 f"**{'PASSED' if num(f['wall_time']) <= limit else 'NOT PASSED'}**\n")
+    else:
+        text += "- no run reaches it: **NOT PASSED**\n"
+    return text
+
+
+FINDINGS = {"stability": ("Failure modes and what prevents them", stability_findings),
+            "sweep": ("Torch reference", reference_verdict)}
+"""Per experiment, the section of findings of our own its report ends with, and the function that draws them."""
+
+
+def judged(experiment: str, rows: list[dict]) -> list[tuple[str, str]]:
+    """The sections of an experiment's report that draw conclusions from its ``rows``: the source reports' claims it
+    tests, judged as ``REPRODUCTION.md`` judges them, and its :data:`FINDINGS`."""
+    claims = [c for c in CLAIMS if c.experiment == experiment]
+    out = [("The source reports' claims", claims_table(claims, lambda _: rows))] if claims else []
+    return out + ([(FINDINGS[experiment][0], FINDINGS[experiment][1](rows))] if experiment in FINDINGS else [])

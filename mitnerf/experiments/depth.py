@@ -14,7 +14,9 @@ from pathlib import Path
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig
 from ..train.recipes import get_recipe
-from ..viz.panels import density_panel, depth_panel, pyplot, save, strip_panel
+from ..viz.charts import series_figure
+from ..viz.panels import density_panel, depth_panel, image_grid, strip_panel
+from .claims import judged
 from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
 
 METHODS = (("NeRF", False), ("DS-NeRF", True))
@@ -48,18 +50,28 @@ class Config:
     """Runs per (scene, views, method)."""
     seed: int = 0
     """Seed of the rigs and of the first run."""
+    quick: bool = False
+    """A smoke run: its report judges nothing."""
 
 
 def quick(seed: int = 0) -> Config:
     return Config(scenes=("square_concave",), views=(3,), width=16, depth=3, pos_L=6, samples=32, steps=120,
-                  seeds=1, seed=seed)
+                  seeds=1, seed=seed, quick=True)
+
+
+def panels(rows: list[dict]) -> list[dict]:
+    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR and depth error against the
+    training views, per scene and method."""
+    s = summarise(rows, ["scene", "views", "method"], ("psnr", "depth_error"))
+    return [dict(title="depth supervision", rows=s, x="views", y=y, by=("scene", "method"), ylabel=label,
+                 styles={"NeRF": "o--", "DS-NeRF": "s-"}, xlabel="training views")
+            for y, label in (("psnr", "test PSNR [dB]"), ("depth_error", "test depth error"))]
 
 
 def run(cfg: Config, out: Path) -> list[dict]:
     rows = []
-    plt = pyplot()
     for scene in cfg.scenes:
-        panels = []
+        grid = []
         for k in cfg.views:
             ds = cached_dataset(scene, RigConfig(dim=2, n_train=k, n_val=4, n_test=20, layout="even", seed=cfg.seed))
             for method, supervised in METHODS:
@@ -72,33 +84,17 @@ def run(cfg: Config, out: Path) -> list[dict]:
                                                                   "seed": cfg.seed + s})
                     rows.append(row)
                     if s == 0:
-                        panels.append((f"{method}, {k} views", r.backend.density, rec))
-        fig, axes = plt.subplots(len(panels) + 1, 3, figsize=(9, 1.25 * (len(panels) + 1)))
-        strip_panel(axes[0, 0], ds["test"].target(ds.background), "ground truth")
-        depth_panel(axes[0, 1], ds["test"].depth, None, ds.near, ds.far, "true depth")
-        axes[0, 2].axis("off")
-        for a, (label, density, rec) in zip(axes[1:], panels):
-            strip_panel(a[0], rec.renders["rgb"], f"{label}: PSNR {rec.psnr:.1f}")
-            depth_panel(a[1], rec.renders["depth"], rec.renders["opacity"], ds.near, ds.far,
-                        f"depth error {rec.depth_error:.3f}")
-            density_panel(a[2], density, ds.bound, ds.meta.get("polygon"), "density")
-        fig.suptitle(scene)
-        save(fig, out / f"depth_{scene}.png")
+                        p = rec.renders
+                        grid.append([(strip_panel, p["rgb"], f"{method}, {k} views: PSNR {rec.psnr:.1f}"),
+                                       (depth_panel, p["depth"], p["opacity"], ds.near, ds.far,
+                                        f"depth error {rec.depth_error:.3f}"),
+                                       (density_panel, r.backend.density, ds.bound, ds.meta.get("polygon"), "density")])
+        image_grid(out / f"depth_{scene}.png", [[(strip_panel, ds["test"].target(ds.background), f"{scene}: ground "
+                                                 "truth"), (depth_panel, ds["test"].depth, None, ds.near, ds.far,
+                                                            "true depth")]] + grid, cell=(3, 1.25))
     write_csv(out / "depth.csv", rows)
+    series_figure(out / "depth_summary.png", panels(rows), cell=(5, 3.4))
     summary = summarise(rows, ["scene", "views", "method"], ("psnr", "depth_error", "iou"))
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
-    for metric, a in zip(("psnr", "depth_error"), axes):
-        for scene in cfg.scenes:
-            for method, style in (("NeRF", "o--"), ("DS-NeRF", "s-")):
-                pts = [(s["views"], s[metric], s[f"{metric}_std"]) for s in summary
-                       if s["scene"] == scene and s["method"] == method]
-                if pts:
-                    x, y, e = zip(*pts)
-                    a.errorbar(x, y, yerr=e, fmt=style, capsize=2, label=f"{scene} {method}")
-        a.set(xlabel="training views", ylabel="test PSNR [dB]" if metric == "psnr" else "test depth error")
-        a.grid(alpha=0.3)
-    axes[1].legend(fontsize=6, ncol=2)
-    save(fig, out / "depth_summary.png")
     table = [{**{k: s[k] for k in ("scene", "views", "method", "runs")}, "PSNR": mean_std(s, "psnr"),
               "depth error": mean_std(s, "depth_error", ".3f"), "IoU": mean_std(s, "iou", ".3f")} for s in summary]
     figs = "\n\n".join(f"### {s}\n\n![{s}](depth_{s}.png)" for s in cfg.scenes)
@@ -107,19 +103,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
                   f"ray, {cfg.steps} steps of {cfg.batch_rays} rays, {cfg.seeds} seed(s); training views evenly "
                   f"spaced (a random rotation), 20 evenly spaced test views. DS-NeRF adds lambda = {cfg.depth_weight} "
                   f"x KL(N(D, {cfg.depth_sigma}^2) || h) over the rays that hit the object, D the exact depth."),
-        ("Results", markdown_table(table) + "\n" + wins(summary) + "\n\n![PSNR and depth error](depth_summary.png)"),
+        ("Results", markdown_table(table) + "\n![PSNR and depth error](depth_summary.png)"),
         ("Figures", "Each grid: ground truth on top, then each method and view count: test views, test depth "
                     "(where opacity > 0.5) and the density with the true outline.\n\n" + figs),
-    ])
+    ], cfg.quick, lambda: judged("depth", rows))
     return rows
-
-
-def wins(summary: list[dict]) -> str:
-    pairs: dict = {}
-    for s in summary:
-        pairs.setdefault((s["scene"], s["views"]), {})[s["method"]] = s
-    full = [p for p in pairs.values() if "NeRF" in p and "DS-NeRF" in p]
-    depth = sum(p["DS-NeRF"]["depth_error"] < p["NeRF"]["depth_error"] for p in full)
-    psnr = sum(p["DS-NeRF"]["psnr"] > p["NeRF"]["psnr"] for p in full)
-    return (f"Depth supervision lowers the mean test depth error in {depth} of {len(full)} (scene, views) cells and "
-            f"raises the mean test PSNR in {psnr} of {len(full)}.")

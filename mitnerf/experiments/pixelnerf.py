@@ -24,8 +24,9 @@ from ..scenes.registry import get_scene
 from ..train.metrics import depth_error, psnr, ssim
 from ..train.pixelnerf import PixelTrainer, pick_views, scene_views
 from ..train.recipes import get_recipe
-from ..viz.panels import density_panel, pyplot, save
-from ..viz.strips import views_strip
+from ..viz.charts import series_figure
+from ..viz.panels import density_panel, image_grid, strip_panel
+from .claims import judged
 from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
 
 
@@ -73,19 +74,13 @@ class Config:
     """Seconds of each NeRF baseline at most."""
     seed: int = 0
     """Seed of the outlines, the rigs and the trainings."""
+    quick: bool = False
+    """A smoke run: its report judges nothing."""
 
 
 def quick(seed: int = 0) -> Config:
     return Config(n_outlines=12, n_seen=2, n_unseen=2, eval_test_views=8, draws=1, pixel_iters=4000,
-                  pixel_budget=22.0, nerf_iters=200, nerf_time_budget=4.0, seed=seed)
-
-
-def tiny(seed: int = 0) -> Config:
-    """The smallest run that writes every file (the test suite)."""
-    return Config(n_outlines=2, extra_scenes=(), train_views=6, outline_test_views=4, n_seen=1, n_unseen=1,
-                  eval_scenes=("bunny",), eval_train_views=8, eval_test_views=4, ks=(1, 3), draws=1, k_range=(1, 3),
-                  model=PixelNeRFConfig(channels=8, dilations=(1, 2), width=32), pixel_iters=10, nerf_iters=8,
-                  seed=seed)
+                  pixel_budget=22.0, nerf_iters=200, nerf_time_budget=4.0, seed=seed, quick=True)
 
 
 def rig(n_train: int, n_test: int, seed: int) -> RigConfig:
@@ -100,6 +95,16 @@ def outline(cfg: Config, i: int):
 def picks(ds, k: int, draw: int, draws: int) -> np.ndarray:
     """The ``k`` input views of draw ``draw`` (each draw starts the even spread at another camera)."""
     return pick_views(ds["train"].cameras, k, start=draw * len(ds["train"]) // max(draws, 1))
+
+
+def panels(rows: list[dict]) -> list[dict]:
+    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR against the input views on each
+    evaluation scene, then on the seen and the unseen outlines."""
+    s = summarise([{**r, "panel": r["scene"] if r["group"] == "eval" else r["group"]} for r in rows],
+                  ["panel", "method", "k"], ("psnr",))
+    return [dict(title=f"pixelNeRF: {p}", rows=[r for r in s if r["panel"] == p], x="k", by=("method",),
+                 xlabel="input views k", xticks=sorted({r["k"] for r in s}))
+            for p in dict.fromkeys(r["panel"] for r in s)]
 
 
 def run(cfg: Config, out: Path) -> list[dict]:
@@ -149,79 +154,35 @@ def run(cfg: Config, out: Path) -> list[dict]:
     write_csv(out / "results.csv", rows)
     write_csv(out / "training.csv", history)
     methods = [f"pixelNeRF ({e})" for e in cfg.encoders] + ["NeRF"]
-    summary = summarise(rows, ["group", "scene", "method", "k"], ("psnr", "ssim"))
-    _figures_and_report(cfg, summary, history, renders, densities, evals, trainers, methods, out)
+    _draw(cfg, rows, history, renders, densities, evals, methods, out)
+    _write(cfg, rows, trainers, methods, out)
     return rows
 
 
-def _figures_and_report(cfg, summary, history, renders, densities, evals, trainers, methods, out) -> None:
-    plt = pyplot()
-    panels = list(cfg.eval_scenes) + ["seen outline", "unseen outline"]
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 3.4), squeeze=False)
-    for ax, panel in zip(axes[0], panels):
-        for m in methods:
-            pts = [(s["k"], s["psnr"], s["psnr_std"]) for s in summary if s["method"] == m and
-                   (s["scene"] == panel if panel in cfg.eval_scenes else s["group"] == panel)]
-            if pts:
-                ks = sorted({p[0] for p in pts})
-                y = [np.mean([p[1] for p in pts if p[0] == k]) for k in ks]
-                e = [np.mean([p[2] for p in pts if p[0] == k]) for k in ks]
-                ax.errorbar(ks, y, yerr=e, fmt="o-", capsize=2, label=m)
-        ax.set(title=panel, xlabel="input views k", xticks=list(cfg.ks))
-        ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("test PSNR [dB]")
-    axes[0][0].legend(fontsize=8)
-    save(fig, out / "psnr_vs_views.png")
+def _draw(cfg, rows, history, renders, densities, evals, methods, out) -> None:
+    """``psnr_vs_views.png`` (per evaluation scene, then the seen and the unseen outlines), per evaluation scene
+    ``strips_<scene>.png`` and ``density_<scene>.png`` (a row per method, a column per k), ``training.png``."""
+    series_figure(out / "psnr_vs_views.png", panels(rows), cell=(3.6, 3.4))
     for name, ds in evals.items():
         target = ds["test"].target(ds.background)
-        fig, axs = plt.subplots(len(cfg.ks), 1, figsize=(1.0 + 0.28 * target.shape[0], 1.9 * len(cfg.ks)),
-                                squeeze=False)
-        gap = np.ones((6, target.shape[0] * 4, 3), np.float32)
-        for ax, k in zip(axs[:, 0], cfg.ks):
-            imgs = [target] + [renders.get((name, k, m), np.full_like(target, 0.5)) for m in methods]
-            ax.imshow(np.concatenate(sum(([views_strip(np.clip(i, 0, 1)), gap] for i in imgs), [])[:-1], 0),
-                      aspect="auto", interpolation="nearest")
-            ax.set_yticks([(target.shape[1] + 6) * j + target.shape[1] / 2 for j in range(len(imgs))],
-                          ["ground truth"] + methods, fontsize=7)
-            ax.set_xticks([])
-            ax.set_title(f"{name}, k = {k} input views", fontsize=9)
-        save(fig, out / f"strips_{name}.png")
-        fig, axs = plt.subplots(len(cfg.ks), len(methods), figsize=(2.6 * len(methods), 2.5 * len(cfg.ks)),
-                                squeeze=False)
-        for i, k in enumerate(cfg.ks):
-            for j, m in enumerate(methods):
-                density_panel(axs[i, j], densities[(name, k, m)], ds.bound, ds.meta.get("polygon"),
-                              m if i == 0 else "", res=96)
-                if j == 0:
-                    axs[i, j].set_ylabel(f"k = {k}")
-        save(fig, out / f"density_{name}.png", dpi=90)
-    fig, ax = plt.subplots(figsize=(5.5, 3.4))
-    for enc in dict.fromkeys(r["encoder"] for r in history):
-        t, loss = np.array([(r["time"], r["loss"]) for r in history if r["encoder"] == enc], float).T
-        w = min(10, len(loss))
-        if w:
-            ax.semilogy(t[w - 1:], np.convolve(loss, np.ones(w) / w, mode="valid"), label=f"{enc} encoder")
-    ax.set(xlabel="training time [s]", ylabel="MSE (running mean)")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    save(fig, out / "training.png")
+        image_grid(out / f"strips_{name}.png", [[(strip_panel, target, f"ground truth, k = {k}") for k in cfg.ks]] + [
+            [(strip_panel, renders[(name, k, m)], f"{m}, k = {k}") for k in cfg.ks] for m in methods], cell=(4, 1.2))
+        image_grid(out / f"density_{name}.png", [[(density_panel, densities[(name, k, m)], ds.bound,
+                                                   ds.meta.get("polygon"), f"{m}, k = {k}", 96) for m in methods]
+                                                 for k in cfg.ks], cell=(2.6, 2.5), dpi=90)
+    series_figure(out / "training.png", [dict(rows=history, x="time", y="loss", by=("encoder",), err=False,
+                                              styles={e: "-" for e in cfg.encoders}, yscale="log",
+                                              xlabel="training time [s]", ylabel="MSE")], cell=(5.5, 3.4))
+
+
+def _write(cfg, rows, trainers, methods, out) -> None:
+    summary = summarise(rows, ["group", "scene", "method", "k"], ("psnr", "ssim"))
     ev = {(s["scene"], s["method"], s["k"]): s for s in summary if s["group"] == "eval"}
     table = [{"scene": n, "method": m, **{f"k={k}": mean_std(ev[(n, m, k)], "psnr") for k in cfg.ks}}
              for n in cfg.eval_scenes for m in methods]
-    diff, verdict = [], []
-    for n in cfg.eval_scenes:
-        ahead = set()
-        for m in methods[:-1]:
-            line = {"scene": n, "pixelNeRF - NeRF": m}
-            for k in cfg.ks:
-                d = ev[(n, m, k)]["psnr"] - ev[(n, "NeRF", k)]["psnr"]
-                line[f"k={k}"] = f"{d:+.2f}" if np.isfinite(d) else "NeRF failed"
-                if not np.isfinite(d) or d > 0:
-                    ahead.add(k)
-            diff.append(line)
-        verdict.append(f"* {n}: a pixelNeRF variant is ahead of NeRF with k = "
-                       f"{', '.join(str(k) for k in cfg.ks if k in ahead) or 'none'}; NeRF is level or ahead with "
-                       f"k = {', '.join(str(k) for k in cfg.ks if k not in ahead) or 'none'}.")
+    diff = [{"scene": n, "pixelNeRF - NeRF": m, **{f"k={k}": format(ev[(n, m, k)]["psnr"] - ev[(n, "NeRF", k)]["psnr"],
+                                                                   "+.2f") for k in cfg.ks}}
+            for n in cfg.eval_scenes for m in methods[:-1]]
     gen = [{"method": m, "scenes": g, **{f"k={k}": mean_std(s, "psnr") for k in cfg.ks
                                          for s in summary if s["method"] == m and s["group"] == g and s["k"] == k}}
            for m in methods[:-1] for g in ("seen outline", "unseen outline")]
@@ -235,10 +196,10 @@ def _figures_and_report(cfg, summary, history, renders, densities, evals, traine
                    f"`vanilla-2d`, {cfg.nerf_iters} steps or {cfg.nerf_time_budget:g} s of {cfg.nerf_batch_rays} rays "
                    "on exactly the k views."),
         ("PSNR against the number of input views", "Test PSNR [dB] (mean ± std over draws):\n\n"
-         + markdown_table(table) + "\nDifference of the means to NeRF [dB]:\n\n" + markdown_table(diff) + "\n"
-         + "\n".join(verdict) + "\n\n![PSNR vs views](psnr_vs_views.png)"),
+         + markdown_table(table) + "\nDifference of the means to NeRF [dB] (nan: NeRF failed):\n\n"
+         + markdown_table(diff) + "\n![PSNR vs views](psnr_vs_views.png)"),
         ("Generalisation", "pixelNeRF on held-out views of training outlines and on unseen outlines:\n\n"
          + markdown_table(gen)),
         ("Test views", "\n".join(f"![{n}](strips_{n}.png)\n\n![density {n}](density_{n}.png)\n"
                                  for n in cfg.eval_scenes) + "\n![training loss](training.png)"),
-    ])
+    ], cfg.quick, lambda: judged("pixelnerf", rows))

@@ -1,5 +1,5 @@
 """Plumbing every experiment shares: one run -> one row (a ``RunRecord`` row plus the experiment's
-labels), rows -> CSV, mean and spread over seeds, markdown tables, ``report.md``."""
+labels), rows -> CSV, mean and spread over seeds, the Pareto front, markdown tables, ``report.md``."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import csv
 import io
 import math
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -45,21 +46,43 @@ def num(v) -> float:
 
 
 def summarise(rows: list[dict], by: list[str], metrics=("psnr", "ssim")) -> list[dict]:
-    """Rows grouped by the ``by`` columns: count, failures, mean / std / min / max of each metric over the ok runs."""
+    """Rows grouped by the ``by`` columns: ``runs``, ``failed``, ``failure_rate``, ``failures`` (the failed runs'
+    distinct reasons, before any detail), and each metric's mean, ``_std``, ``_min``, ``_max``, ``_median``, ``_p10``
+    and ``_p90`` over the ok runs."""
     groups: dict[tuple, list] = {}
     for r in rows:
         groups.setdefault(tuple(r[k] for k in by), []).append(r)
     out = []
     for key, rs in groups.items():
         ok = [r for r in rs if r.get("status") == "ok"]
-        row = {**dict(zip(by, key)), "runs": len(rs), "failed": len(rs) - len(ok)}
+        why = sorted({str(r.get("reason")).split(";")[0].split(" (")[0] for r in rs if r.get("status") != "ok"})
+        row = {**dict(zip(by, key)), "runs": len(rs), "failed": len(rs) - len(ok),
+               "failure_rate": 1 - len(ok) / len(rs), "failures": "; ".join(why) or "-"}
         for m in metrics:
             vals = np.array([num(r.get(m)) for r in ok])
             vals = vals[np.isfinite(vals)]
-            stats = (vals.mean(), vals.std(), vals.min(), vals.max()) if vals.size else (math.nan,) * 4
-            row.update({m + k: float(v) for k, v in zip(("", "_std", "_min", "_max"), stats)})
+            stats = ((vals.mean(), vals.std(), vals.min(), vals.max(), *np.percentile(vals, [50, 10, 90])) if vals.size
+                     else (math.nan,) * 7)
+            row.update({m + k: float(v) for k, v in zip(("", "_std", "_min", "_max", "_median", "_p10", "_p90"),
+                                                        stats)})
         out.append(row)
     return out
+
+
+def is_reference(r: dict) -> bool:
+    return str(r.get("reference", "")).lower() in ("true", "1")
+
+
+def pareto_front(rows: list[dict], x: str = "wall_time", y: str = "psnr", min_gain: float = 0.01) -> list[dict]:
+    """The rows no faster row beats by more than ``min_gain`` dB, by increasing ``x``."""
+    pts = sorted((r for r in rows if r.get("status") == "ok" and math.isfinite(num(r.get(x)))
+                  and math.isfinite(num(r.get(y)))), key=lambda r: (num(r[x]), -num(r[y])))
+    front, best = [], -math.inf
+    for r in pts:
+        if num(r[y]) > best + min_gain:
+            front.append(r)
+            best = num(r[y])
+    return front
 
 
 def fmt_value(v, spec: str = ".2f") -> str:
@@ -88,7 +111,16 @@ def mean_std(row: dict, metric: str, spec: str = ".2f") -> str:
     return f"{m:{spec}}" + (f" ± {s:{spec}}" if row.get("runs", 1) - row.get("failed", 0) > 1 else "")
 
 
-def write_report(out: Path, title: str, sections: list[tuple[str, str]]) -> Path:
-    """``report.md``: a title, then (heading, markdown body) sections; bodies embed figures relative to ``out``."""
+SMOKE = ("**A smoke run** (`--quick`): a few steps on tiny data, which show that the experiment runs from end to "
+         "end and nothing more. Its figures are not results and this report draws no conclusions; a run without "
+         "`--quick` does.")
+"""What the top of every quick report says."""
+
+
+def write_report(out: Path, title: str, sections: list[tuple[str, str]], quick: bool = False,
+                 judged: Callable[[], list[tuple[str, str]]] | None = None, name: str = "report.md") -> Path:
+    """``out/name``: a title, then (heading, markdown body) sections (bodies embed figures relative to ``out``),
+    then the sections ``judged()`` draws conclusions in; a ``quick`` run gets :data:`SMOKE` on top instead."""
+    sections = [("Smoke run", SMOKE)] + sections if quick else sections + (judged() if judged else [])
     text = [f"# {title}\n"] + [f"## {heading}\n\n{body.strip()}\n" for heading, body in sections]
-    return atomic_write_text(out / "report.md", "\n".join(text))
+    return atomic_write_text(out / name, "\n".join(text))

@@ -17,7 +17,8 @@ import numpy as np
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig
 from ..train.recipes import get_recipe
-from ..viz.panels import pyplot, save
+from ..viz.charts import series_figure
+from .claims import judged
 from .report import markdown_table, summarise, train_row, write_csv, write_report
 
 NERF = dict(width=32, depth=3, pos_L=8, dir_L=4)
@@ -50,10 +51,12 @@ class Config:
     """Which methods of ``METHODS`` to run."""
     seed: int = 0
     """Seed of the rig; run k of a method uses seed ``seed + k``."""
+    quick: bool = False
+    """A smoke run: its report judges nothing."""
 
 
 def quick(seed: int = 0) -> Config:
-    return Config(seeds=3, steps=40, samples=32, seed=seed,
+    return Config(seeds=3, steps=40, samples=32, seed=seed, quick=True,
                   methods=("NeRF (defaults)", "NeRF, ReLU + bias 0, no warm-up"))
 
 
@@ -70,55 +73,25 @@ def run(cfg: Config, out: Path) -> list[dict]:
             rows.append(train_row(data, recipe, {"method": label, "seed": cfg.seed + k}, geometry_metrics=False)[0])
     write_csv(out / "stability.csv", rows)
     summary = summarise(rows, ["method"], ("psnr",))
-    for s in summary:
-        p = np.array([r["psnr"] for r in rows if r["method"] == s["method"] and r["status"] == "ok"])
-        s["failure_rate"] = s["failed"] / s["runs"]
-        s["median"], s["p10"], s["p90"] = (np.median(p), *np.percentile(p, [10, 90])) if len(p) else (np.nan,) * 3
-        s["failures"] = "; ".join(sorted({r["reason"].split(";")[0].split(" (")[0] for r in rows
-                                          if r["method"] == s["method"] and r["status"] != "ok"})) or "-"
-    plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), gridspec_kw={"width_ratios": [3, 1]})
-    for i, label in enumerate(cfg.methods):
-        rs = [r for r in rows if r["method"] == label]
-        jitter = np.random.default_rng(i).uniform(-0.15, 0.15, len(rs))
-        ok = [(i + j, r["psnr"]) for j, r in zip(jitter, rs) if r["status"] == "ok"]
-        bad = [i + j for j, r in zip(jitter, rs) if r["status"] != "ok"]
-        if ok:
-            axes[0].plot(*zip(*ok), "o", ms=4, alpha=0.7)
-        if bad:
-            axes[0].plot(bad, [5.0] * len(bad), "x", color="red", ms=6)
-    axes[0].set_xticks(range(len(cfg.methods)), [m.replace(", ", ",\n") for m in cfg.methods], fontsize=7)
-    axes[0].set_ylabel("test PSNR [dB] (x: failed)")
-    axes[0].grid(alpha=0.3, axis="y")
-    axes[1].barh(range(len(summary)), [s["failure_rate"] for s in summary], color="tab:red")
-    axes[1].set_yticks(range(len(summary)), [s["method"] for s in summary], fontsize=6)
-    axes[1].set(xlabel="failure rate", xlim=(0, 1))
-    fig.suptitle(f"{cfg.scene}, {cfg.views} views, {cfg.seeds} seeds per method, {cfg.steps} steps")
-    save(fig, out / "stability.png")
-    by = {s["method"]: s for s in summary}
-    lines = []
-    base, relu = by.get("NeRF (defaults)"), by.get("NeRF, ReLU + bias 0, no warm-up")
-    near = by.get("NeRF, near plane at the camera")
-    if base and relu:
-        lines.append("- **Dead density.** With ReLU, a zero density bias and no warm-up, "
-                     f"{relu['failed']}/{relu['runs']} runs failed ({relu['failures']}); with the defaults (softplus "
-                     "density, which always has a gradient; a -1 density bias; a 50-step warm-up) "
-                     f"{base['failed']}/{base['runs']}.")
-    if base and near:
-        lines.append(f"- **Floaters in front of the cameras.** With the near plane 5 cm in front of the cameras the "
-                     f"median test PSNR is {near['median']:.2f} dB against {base['median']:.2f} dB with the near plane "
-                     "at the object's bounding circle (the datasets' default).")
-    for s in [by[label] for label in ("DS-NeRF (defaults)", "grid (defaults)") if label in by]:
-        lines.append(f"- **{s['method']}**: {s['failed']}/{s['runs']} failed; median {s['median']:.2f} dB "
-                     f"(10-90 %: {s['p10']:.2f}-{s['p90']:.2f}).")
-    table = markdown_table(summary, ["method", "runs", "failed", "failure_rate", "median", "p10", "p90", "failures"],
-                           fmt={"failure_rate": ".2f", "median": ".2f", "p10": ".2f", "p90": ".2f"})
+    at = {m: i for i, m in enumerate(cfg.methods)}               # every run at its method, jittered; failed at 5 dB
+    runs = [{"x": at[r["method"]] + j, "psnr": r["psnr"] if r["status"] == "ok" else 5.0,
+             "run": "ok" if r["status"] == "ok" else "failed"}
+            for r, j in zip(rows, np.random.default_rng(0).uniform(-0.15, 0.15, len(rows)))]
+    ticks = dict(xticks=list(at.values()), xticklabels=[m.replace(", ", ",\n") for m in at], xlabel="")
+    series_figure(out / "stability.png", [
+        dict(rows=runs, x="x", by=("run",), styles={"ok": "o", "failed": "rx"}, err=False, **ticks),
+        dict(rows=[{"x": at[s["method"]], **s} for s in summary], x="x", y="failure_rate", styles={None: "rs"},
+             err=False, ylabel="failure rate", **ticks)],
+        f"{cfg.scene}, {cfg.views} views, {cfg.seeds} seeds per method, {cfg.steps} steps", cell=(6, 3.8))
+    table = markdown_table(summary, ["method", "runs", "failed", "failure_rate", "psnr_median", "psnr_p10",
+                                     "psnr_p90", "failures"], {k: ".2f" for k in ("failure_rate", "psnr_median",
+                                                                                 "psnr_p10", "psnr_p90")},
+                           {"psnr_median": "median", "psnr_p10": "p10", "psnr_p90": "p90"})
     write_report(out, f"Stability from {cfg.views} views of the {cfg.scene}", [
         ("Setup", f"{cfg.seeds} seeds per method (initial weights, batches, jitter; the views are fixed), "
                   f"{cfg.steps} steps, {cfg.samples} samples per ray, {cfg.views} evenly spaced training views, "
                   "20 test views. Failed: NaN, or collapsed (empty or constant renders; "
                   "`mitnerf.train.evaluate.classify`)."),
         ("Results", table + "\n![PSNR per run and failure rates](stability.png)"),
-        ("Failure modes and what prevents them", "\n".join(lines)),
-    ])
+    ], cfg.quick, lambda: judged("stability", rows))
     return rows

@@ -4,8 +4,9 @@
 BUDGETS`` (``torch`` runs the sizes in ``TORCH_SIZES``) plus the torch ``REFERENCE``, and writes into
 ``DIR``: ``sweep.csv``, one line per run (``COLUMNS``; ``wall_time`` is the clock around ``fit``:
 set-up, compilation, training), appended as runs finish, so a rerun skips the rows already there;
-``sweep.md``, per scene its Pareto front, its table, and whether some run reaches the reference's
-PSNR in 1/``SPEEDUP`` of its time; ``pareto.png``, PSNR against wall time.
+``sweep.md``, per scene its Pareto front and its table, and whether some run reaches the reference's
+PSNR in 1/:data:`~mitnerf.experiments.claims.SPEEDUP` of its time (not in a quick sweep: a smoke test);
+``pareto.png``, PSNR against wall time.
 """
 
 from __future__ import annotations
@@ -15,12 +16,11 @@ import csv
 import dataclasses
 import io
 import json
-import math
 import multiprocessing as mp
 import os
 import socket
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
@@ -37,8 +37,9 @@ from ..scenes.objects3d import OBJECTS_3D
 from ..scenes.registry import SCENES_2D
 from ..train.fit import fit_and_evaluate
 from ..train.recipes import Recipe, recipe_for
-from ..viz.charts import plot_pareto
-from .report import markdown_table, num
+from ..viz.charts import series_figure
+from .claims import judged
+from .report import is_reference, markdown_table, num, pareto_front, write_report
 
 SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
          "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
@@ -50,8 +51,6 @@ SAMPLES = (32, 64, 128)
 BUDGETS = ("3s", "10s", "30s")
 TORCH_SIZES = ("recipe",)
 REFERENCE = dict(scene="bunny", family="vanilla", backend="torch", budget="600s")
-SPEEDUP = 100
-"""The goal: the reference's PSNR in 1/SPEEDUP of its wall time."""
 QUICK = dict(sizes={"vanilla": {"w16": dict(width=16, depth=2, pos_L=4, dir_L=2)},
                     "grid": {"r17": dict(resolution=17, initial_resolution=17, upsample_at=())},
                     "hashgrid": {"T10": dict(n_levels=4, log2_hashmap_size=10, hidden=8, geo_features=3)}},
@@ -207,65 +206,21 @@ def read_results(path: Path) -> list[dict]:
     return list(recs.values())
 
 
-def pareto_front(rows: list[dict], x: str = "wall_time", y: str = "psnr", min_gain: float = 0.01) -> list[dict]:
-    """The rows no faster row beats by more than ``min_gain`` dB, by increasing ``x``."""
-    pts = sorted((r for r in rows if r.get("status") == "ok" and math.isfinite(num(r.get(x)))
-                  and math.isfinite(num(r.get(y)))), key=lambda r: (num(r[x]), -num(r[y])))
-    front, best = [], -math.inf
-    for r in pts:
-        if num(r[y]) > best + min_gain:
-            front.append(r)
-            best = num(r[y])
-    return front
-
-
-def is_reference(r: dict) -> bool:
-    return str(r.get("reference", "")).lower() in ("true", "1")
-
-
-def reference_verdict(rows: list[dict]) -> str:
-    ref = next((r for r in rows if is_reference(r) and r["status"] == "ok"), None)
-    if ref is None:
-        return "No torch reference in this sweep.\n"
-    others = pareto_front([r for r in rows if r["scene"] == ref["scene"] and not is_reference(r)])
-    limit = num(ref["wall_time"]) / SPEEDUP
-    reach = [r for r in others if num(r["psnr"]) >= num(ref["psnr"])]
-    name = lambda r: f"{r['family']} {r['size']} s{r['samples']} {r['backend']} {r['budget']}"
-    text = (f"Torch reference ({name(ref)}, {ref['scene']}): {num(ref['psnr']):.2f} dB in "
-            f"{num(ref['wall_time']):.1f} s; the goal is that PSNR in at most {limit:.2f} s.\n\n")
-    if reach:
-        f = reach[0]
-        verdict = "PASSED" if num(f["wall_time"]) <= limit else "NOT PASSED"
-        text += (f"- fastest run reaching it: {name(f)}, {num(f['psnr']):.2f} dB in {num(f['wall_time']):.2f} s "
-                 f"({num(ref['wall_time']) / num(f['wall_time']):.0f}x faster): **{verdict}**\n")
-    else:
-        text += "- no run reaches it: **NOT PASSED**\n"
-    return text
-
-
-def run_jobs(fn: Callable, jobs: list, cfg: Config) -> Iterator[dict]:
-    """``fn(job)`` of every job, yielded as they finish, in ``cfg.workers`` local processes or on the Dask
-    cluster at ``cfg.scheduler`` (``dask scheduler``; ``dask worker tcp://HOST:8786 --nthreads 1 --nworkers N``
-    where mitnerf is installed). ``fn`` must not raise; a worker that dies gives a failed record."""
-    failed = lambda row, exc: _record(row, status="failed", reason=f"worker died: {type(exc).__name__}: {exc}"[:500])
+@contextlib.contextmanager
+def executor(cfg: Config) -> Iterator[Executor]:
+    """``cfg.workers`` local processes, or the Dask cluster at ``cfg.scheduler`` (``dask scheduler``; ``dask worker
+    tcp://HOST:8786 --nthreads 1 --nworkers N`` where mitnerf is installed)."""
     if cfg.executor == "local":
         with ProcessPoolExecutor(max_workers=max(1, cfg.workers), mp_context=mp.get_context("spawn"),
                                  initializer=prepare_worker, initargs=(cfg.threads,)) as pool:
-            futures = {pool.submit(fn, j): j for j in jobs}
-            try:
-                for fut in as_completed(futures):
-                    exc = fut.exception()
-                    yield failed(futures[fut], exc) if exc is not None else fut.result()
-            finally:
-                for fut in futures:       # interrupted: do not start what is still queued
-                    fut.cancel()
+            yield pool
         return
     if cfg.executor != "dask":
         raise ConfigError(f"unknown executor {cfg.executor!r}; choose local or dask")
     if not cfg.scheduler:
         raise ConfigError("the dask executor needs a scheduler; pass --scheduler tcp://HOST:8786")
     try:
-        from distributed import Client, as_completed as dask_completed
+        from distributed import Client
     except ImportError:
         raise EnvironmentProblem("the dask executor needs dask.distributed: pip install -e .[dask]") from None
     try:
@@ -274,15 +229,24 @@ def run_jobs(fn: Callable, jobs: list, cfg: Config) -> Iterator[dict]:
         raise EnvironmentProblem(f"cannot reach the Dask scheduler at {cfg.scheduler} ({exc}); start one with "
                                  "'dask scheduler' and pass its address, or use --executor local") from None
     try:
-        futures = {client.submit(fn, j, key=f"mitnerf-{os.getpid()}-{i}", pure=False): j for i, j in enumerate(jobs)}
-        by_key = {f.key: j for f, j in futures.items()}
-        for fut in dask_completed(list(futures)):
-            try:
-                yield fut.result()
-            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker
-                yield failed(by_key[fut.key], exc)
+        yield client.get_executor(pure=False)
     finally:
         client.close()
+
+
+def run_jobs(fn: Callable, jobs: list, cfg: Config) -> Iterator[dict]:
+    """``fn(job)`` of every job, yielded as they finish, on the :func:`executor` of ``cfg``. ``fn`` must not raise;
+    a worker that dies (or a Dask ``KilledWorker``) gives a failed record."""
+    with executor(cfg) as pool:
+        futures = {pool.submit(fn, j): j for j in jobs}
+        try:
+            for fut in as_completed(futures):
+                exc = fut.exception()
+                yield fut.result() if exc is None else _record(
+                    futures[fut], status="failed", reason=f"worker died: {type(exc).__name__}: {exc}"[:500])
+        finally:
+            for fut in futures:       # interrupted: do not start what is still queued
+                fut.cancel()
 
 
 def run(cfg: Config, out: Path, progress: bool = True) -> list[dict]:
@@ -299,19 +263,24 @@ def run(cfg: Config, out: Path, progress: bool = True) -> list[dict]:
             append_result(csv_path, rec)
             bar.update(1)
     rows = read_results(csv_path)
-    plot_pareto(rows, out / "pareto.png", pareto_front, is_reference)
-    text = ["# Speed against accuracy\n", "![test PSNR against wall time](pareto.png)\n", "## Torch reference\n",
-            reference_verdict(rows)]
+    scenes = {s: [r for r in rows if r["scene"] == s] for s in dict.fromkeys(r["scene"] for r in rows)}
+    front = {s: pareto_front(rs) for s, rs in scenes.items()}
+    series_figure(out / "pareto.png", [dict(  # each family and backend, the reference labelled, the front dashed
+        title=s, x="wall_time", by=("run",), err=False, xscale="log", xlabel="wall time of fit (s)", rows=[
+            {**r, "run": f"{r['family']}, {r['backend']}", **({"label": "torch reference"} if is_reference(r) else {})}
+            for r in rs] + [{**r, "run": "Pareto front"} for r in front[s]],
+        styles={**{f"{r['family']}, {r['backend']}": "o" for r in rs}, "Pareto front": "k--"})
+        for s, rs in scenes.items()], cell=(6.0, 4.2))
     cols = ["family", "size", "samples", "backend", "budget", "psnr", "ssim", "wall_time", "steps", "front", "id"]
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        rs = [r for r in rows if r["scene"] == scene]
-        ids = {r["id"] for r in pareto_front(rs)}
+    sections = [("Test PSNR against wall time", "![test PSNR against wall time](pareto.png)")]
+    for scene, rs in scenes.items():
+        ids = {r["id"] for r in front[scene]}
         table = [{**r, "front": "yes" if r["id"] in ids else ""} for r in sorted(rs, key=lambda r: num(r["wall_time"]))]
-        text += [f"## {scene}\n", markdown_table([r for r in table if r["status"] == "ok"], cols,
-                                                 {"psnr": ".2f", "ssim": ".3f", "wall_time": ".2f"})]
+        sections.append((scene, markdown_table([r for r in table if r["status"] == "ok"], cols,
+                                               {"psnr": ".2f", "ssim": ".3f", "wall_time": ".2f"})))
     failed = [r for r in rows if r["status"] != "ok"]
     if failed:
-        text += ["## Failed runs\n", markdown_table(failed, ["scene", "family", "size", "backend", "budget", "status",
-                                                             "reason"])]
-    (out / "sweep.md").write_text("\n".join(text))
+        sections.append(("Failed runs", markdown_table(failed, ["scene", "family", "size", "backend", "budget",
+                                                                "status", "reason"])))
+    write_report(out, "Speed against accuracy", sections, cfg.quick, lambda: judged("sweep", rows), name="sweep.md")
     return rows

@@ -9,11 +9,12 @@ with the scene; :func:`aov_depth` checks them against Mitsuba's depth AOV. Camer
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from .._variant import ensure_variant
+from .._variant import ensure_variant, set_variant
 from ..errors import ConfigError, DataError
 
 INTEGRATORS = ("all_lights", "path", "scene")
@@ -158,3 +159,26 @@ def exact_depth(scene, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarra
                 depth[k] = float(si.t)
     depth = depth.reshape(origins.shape[:-1])
     return depth.astype(np.float32), np.isfinite(depth)
+
+
+def compare_variants(load, frames: np.ndarray, fov: float, height: int, width: int, origins: np.ndarray,
+                     dirs: np.ndarray, spp: int, variants=("scalar_rgb", "llvm_ad_rgb")) -> dict:
+    """The same views in two Mitsuba variants (``load()`` builds the scene in the variant set; cameras as
+    :func:`render_color` and :func:`exact_depth` take them): ``psnr`` of one's linear colour against the other's
+    (they draw different samples), ``depth_error`` (max abs where both hit), ``masks_equal``, ``seconds`` per
+    variant. Leaves the last variant set."""
+    import mitsuba as mi
+
+    out = []
+    for variant in variants:
+        set_variant(variant)
+        mi.set_log_level(mi.LogLevel.Error)   # scalar variants warn that Python integrators are slow
+        t0, scene = time.perf_counter(), load()
+        rgb = render_color(scene, frames, fov, height, width, RenderSettings(spp=spp))[0]
+        out.append((rgb, *exact_depth(scene, origins, dirs), time.perf_counter() - t0))
+    (a, da, ma, ta), (b, db, mb, tb) = out
+    hit = ma & mb
+    return {"psnr": float(10 * np.log10(1.0 / max(np.mean((a - b) ** 2), 1e-20))),
+            "max_diff": float(np.abs(a - b).max()),
+            "depth_error": float(np.abs(da[hit] - db[hit]).max()) if hit.any() else 0.0,
+            "masks_equal": bool(np.array_equal(ma, mb)), "seconds": (ta, tb)}

@@ -62,3 +62,24 @@ def density_panel(ax, source, bound: float, outline=None, title: str = "", res: 
         ax.plot(pts[:, 0], pts[:, 1], color="cyan", lw=0.6, alpha=0.8)
     ax.set_title(title, fontsize=8)
     ax.set_xticks([]), ax.set_yticks([])
+
+
+def image_panel(ax, image: np.ndarray, title: str = "") -> None:
+    """One image ``[H, W, 3]`` (clipped to [0, 1]), no axes."""
+    ax.imshow(np.clip(image, 0, 1))
+    ax.set_title(title, fontsize=7)
+    ax.axis("off")
+
+
+def image_grid(path, rows: list[list], cell=(3.0, 1.2), dpi: int = 110) -> Path:
+    """A figure of panels row by row, each ``cell`` inches: every panel is ``(draw, *args)``, ``draw(ax, *args)``
+    one of this module's panels; ``None`` (or a short row) leaves a cell empty."""
+    m = max(1, *(len(r) for r in rows))
+    fig, axes = pyplot().subplots(len(rows), m, figsize=(cell[0] * m, cell[1] * len(rows)), squeeze=False)
+    for row, axs in zip(rows, axes):
+        for panel, ax in zip(list(row) + [None] * m, axs):
+            if panel is None:
+                ax.axis("off")
+            else:
+                panel[0](ax, *panel[1:])
+    return save(fig, path, dpi=dpi)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .panels import density_image, pyplot, save
+from .panels import density_image, density_panel, pyplot, save
 from .strips import colorize_depth, contact_sheet, save_image, views_strip
 
 
@@ -24,14 +24,9 @@ def plot_curves(history: dict, path: str | Path, title: str = "") -> Path:
 
 
 def save_density(density, bound: float, dim: int, path: str | Path, outline=None, title="density") -> Path:
-    sigma = density_image(density, bound, dim)
     fig, ax = pyplot().subplots(figsize=(4.4, 4.2))
-    im = ax.imshow(np.log10(1e-2 + np.maximum(sigma, 0)), cmap="magma", extent=(-bound, bound, -bound, bound))
-    if outline is not None:
-        pts = np.asarray(outline)
-        ax.plot(pts[:, 0], pts[:, 1], color="cyan", lw=0.8, alpha=0.8)
-    fig.colorbar(im, ax=ax, fraction=0.046, label="log10(0.01 + sigma)")
-    ax.set(title=title, xticks=[], yticks=[])
+    density_panel(ax, density_image(density, bound, dim), bound, outline, title)
+    fig.colorbar(ax.images[0], ax=ax, fraction=0.046, label="log10(0.01 + sigma)")
     return save(fig, path)
 
 
