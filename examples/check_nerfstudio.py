@@ -33,8 +33,8 @@ from mitnerf.data.formats import load_dataset
 from mitnerf.results import record_result
 
 TOL_RAY, TOL_IMAGE, TOL_DEPTH = 1e-5, 1.0 / 255 + 1e-6, 1e-4
-DATASETS = {"vase": ["--scene", "vase", "--views", "6", "--val", "2", "--test", "3", "--resolution", "24"],
-            "bunny": ["--scene", "bunny", "--views", "12", "--val", "3", "--test", "5", "--resolution", "64"]}
+DATASETS = {"vase": ["--scene", "vase", "--views", "6", "--val", "2", "--test", "3", "--image-size", "24"],
+            "bunny": ["--scene", "bunny", "--views", "12", "--val", "3", "--test", "5", "--image-size", "64"]}
 
 
 worst: dict = {}

@@ -2,7 +2,6 @@
 them as one line and exit with status 2; library code raises them and never calls ``sys.exit``."""
 
 import errno
-import math
 import os
 
 
@@ -33,21 +32,6 @@ class EnvironmentProblem(MitnerfError):
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised where Python runs next (the command line's handler), so that every ``finally`` (staging
     folders, locks) runs as for Ctrl-C."""
-
-
-def check_number(name: str, value, lo=None, hi=None, integer: bool = False, strict_lo: bool = False,
-                 flag: str | None = None) -> None:
-    """Raise :class:`ConfigError` for a setting outside ``[lo, hi]`` (``(lo, hi]`` with
-    ``strict_lo``), not finite, or of the wrong type; ``flag`` names it as the user typed it."""
-    what = flag or name
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or (integer and not float(value).is_integer()):
-        raise ConfigError(f"{what} must be {'a whole' if integer else 'a'} number, got {value!r}")
-    if not math.isfinite(value):
-        raise ConfigError(f"{what} must be a finite number, got {value}")
-    if lo is not None and (value <= lo if strict_lo else value < lo):
-        raise ConfigError(f"{what} must be {'>' if strict_lo else '>='} {lo:g}, got {value:g}")
-    if hi is not None and value > hi:
-        raise ConfigError(f"{what} must be <= {hi:g}, got {value:g}")
 
 
 _FIXES = {

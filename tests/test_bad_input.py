@@ -44,8 +44,8 @@ def polygons(tmp_path):
     ("unknown scene", ["--scene", "teapot"], "unknown scene 'teapot'; choose one of"),
     ("open polygon", ["--polygon", "{open}"], "is open"),
     ("self-intersecting polygon", ["--polygon", "{crossing}"], "self-intersecting"),
-    ("zero views", ["--scene", "square", "--views", "0"], "zero training views"),
-    ("resolution 0", ["--scene", "square", "--resolution", "0"], "resolution must be at least 1"),
+    ("zero views", ["--scene", "square", "--views", "0"], "argument --views: it must be >= 1, got 0"),
+    ("resolution 0", ["--scene", "square", "--image-size", "0"], "argument --image-size: it must be >= 1, got 0"),
 ])
 def test_dataset_bad_input(case, args, words, polygons, tmp_path, capsys):
     out = tmp_path / "out"

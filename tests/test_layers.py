@@ -64,7 +64,7 @@ def test_the_core_runs_without_torch(tmp_path):
 import sys
 sys.modules["torch"] = None                       # any `import torch` now fails
 from mitnerf.cli import main
-assert main(["dataset", "--scene", "square", "--views", "6", "--val", "2", "--test", "2", "--resolution", "32",
+assert main(["dataset", "--scene", "square", "--views", "6", "--val", "2", "--test", "2", "--image-size", "32",
              "--out", "{tmp_path / 'd'}"]) == 0
 assert main(["fit", "--data", "{tmp_path / 'd'}", "--iters", "5", "--out", "{tmp_path / 'r'}"]) == 0
 assert main(["recipes"]) == 0

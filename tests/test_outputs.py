@@ -16,7 +16,7 @@ from mitnerf._io import MARKER, Output, cache_entry
 from mitnerf.cli import main
 from mitnerf.errors import OutputError
 
-DATASET = ["dataset", "--scene", "square", "--views", "3", "--val", "1", "--test", "2", "--resolution", "16"]
+DATASET = ["dataset", "--scene", "square", "--views", "3", "--val", "1", "--test", "2", "--image-size", "16"]
 
 
 def leftovers(folder):
@@ -43,7 +43,7 @@ def test_a_plain_file_is_never_replaced(tmp_path, capsys):
     assert f.read_text() == "keep me"
     tiny = tmp_path / "tiny.npz"
     tiny.write_bytes(b"mine")
-    assert main(["dataset", "--scene", "vase", "--views", "2", "--val", "1", "--test", "1", "--resolution", "8",
+    assert main(["dataset", "--scene", "vase", "--views", "2", "--val", "1", "--test", "1", "--image-size", "8",
                  "--format", "tiny_nerf", "--out", str(tiny)]) == 2
     assert tiny.read_bytes() == b"mine"
 
@@ -213,7 +213,7 @@ def test_a_name_that_is_not_utf8_prints(tmp_path):
 
 @pytest.mark.parametrize("signum,status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_an_interrupted_dataset_says_so_in_one_line_and_leaves_nothing(tmp_path, signum, status):
-    cmd = [sys.executable, "-m", "mitnerf", "dataset", "--scene", "vase", "--views", "200", "--resolution", "64",
+    cmd = [sys.executable, "-m", "mitnerf", "dataset", "--scene", "vase", "--views", "200", "--image-size", "64",
            "--out", str(tmp_path / "ds")]
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     for _ in range(600):                                   # until it renders

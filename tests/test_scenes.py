@@ -193,7 +193,7 @@ def test_dataset_command_records_the_look(tmp_path):
     from mitnerf.data.formats import load_dataset
 
     assert main(["dataset", "--scene", "brick", "--material", "roughplastic", "--out", str(tmp_path / "b"),
-                 "--views", "2", "--val", "1", "--test", "1", "--resolution", "16"]) == 0
+                 "--views", "2", "--val", "1", "--test", "1", "--image-size", "16"]) == 0
     meta = load_dataset(tmp_path / "b").meta
     assert (meta["scene"], meta["material"], meta["lighting"]) == ("brick_roughplastic", "roughplastic", "points")
     assert main(["dataset", "--scene", "square", "--env", "--spp", "4", "--out", str(tmp_path / "s"),
@@ -201,7 +201,7 @@ def test_dataset_command_records_the_look(tmp_path):
     meta = load_dataset(tmp_path / "s").meta
     assert (meta["lighting"], meta["render"]["integrator"]) == ("env", "path")
     assert main(["dataset", "--scene", "square_glossy", "--roughness", "0.3", "--out", str(tmp_path / "r"),
-                 "--views", "2", "--val", "1", "--test", "1", "--resolution", "16"]) == 0
+                 "--views", "2", "--val", "1", "--test", "1", "--image-size", "16"]) == 0
     meta = load_dataset(tmp_path / "r").meta
     assert (meta["scene"], meta["roughness"]) == ("square_roughplastic_r0.3", 0.3)
     for bad in (["--scene", "square", "--roughness", "0.3"], ["--scene", "square_glossy", "--roughness", "0"]):

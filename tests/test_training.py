@@ -134,8 +134,8 @@ def test_fit_cli_prints_the_recipe_and_ends_with_the_record(bunny_small, tmp_pat
     from mitnerf.data.formats import save_dataset
 
     save_dataset(bunny_small, tmp_path / "ds")
-    assert main(["fit", "--data", str(tmp_path / "ds"), "--iters", "20", "--field", "vanilla", "--width", "16",
-                 "--depth", "2", "--samples", "16", "--out", str(tmp_path / "run")]) == 0
+    assert main(["fit", "--data", str(tmp_path / "ds"), "--iters", "20", "--field", "vanilla", "--mlp-width", "16",
+                 "--mlp-depth", "2", "--samples", "16", "--out", str(tmp_path / "run")]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     assert lines[0].startswith("recipe vanilla-2d+: vanilla (width=16, depth=2")
     assert lines[-1].startswith("test PSNR ") and " dB, SSIM " in lines[-1] and "recipe vanilla-2d+" in lines[-1]
@@ -151,7 +151,7 @@ def test_sigint_then_resume_lands_where_an_uninterrupted_run_does(bunny_small, t
 
     save_dataset(bunny_small, tmp_path / "ds")
     cmd = [sys.executable, "-m", "mitnerf", "fit", "--data", str(tmp_path / "ds"), "--field", "vanilla",
-           "--iters", "1500", "--width", "16", "--depth", "3", "--samples", "32", "--batch", "256",
+           "--iters", "1500", "--mlp-width", "16", "--mlp-depth", "3", "--samples", "32", "--batch", "256",
            "--val-every", "0", "--threads", "1", "--no-figures"]
     whole = subprocess.run(cmd + ["--out", str(tmp_path / "whole")], capture_output=True, text=True, cwd=ROOT)
     assert whole.returncode == 0, whole.stderr

@@ -1,6 +1,5 @@
 """Orbit videos: cameras that look at the centre, frames that render and read back, the CLI."""
 
-import argparse
 import re
 
 import numpy as np
@@ -120,10 +119,10 @@ def test_a_trained_model_makes_a_video(tiny_checkpoint, tmp_path):
 
 def video_cli(argv):
     """The ``video`` sub-command on its own parser (errors propagate instead of exit status 2)."""
-    from mitnerf.cli import video_cmd
+    from mitnerf.cli import Parser, video_cmd
 
-    parser = argparse.ArgumentParser()
-    video_cmd.register(parser.add_subparsers(dest="command", required=True))
+    parser = Parser(prog="mitnerf")
+    video_cmd.register(parser.add_subparsers(dest="command", required=True, parser_class=Parser))
     args = parser.parse_args(["video", *argv])
     return args.run(args)
 
@@ -132,7 +131,7 @@ def test_video_cli_writes_videos_mesh_and_chamfer(tiny_checkpoint, tmp_path, cap
     import json
 
     out = tmp_path / "video"
-    assert video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(out), "--frames", "4", "--resolution", "12",
+    assert video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(out), "--frames", "4", "--image-size", "12",
                       "--level", "auto", "--mesh-resolution", "20", "--chamfer-points", "2000"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     assert re.fullmatch(r"video 4 frames 12x12 in \S+ s \(\S+ frames/s\)", lines[-1])
@@ -152,12 +151,12 @@ def test_video_cli_errors_say_what_to_do(tiny_checkpoint, bunny_small, tmp_path)
 
     with pytest.raises(MitnerfError, match="not a mitnerf checkpoint.*mitnerf fit"):
         video_cli(["--checkpoint", str(tmp_path / "nothing"), "--out", str(tmp_path / "v")])
-    with pytest.raises(MitnerfError, match="--level must be"):
+    with pytest.raises(MitnerfError, match="--level: it must be a density"):
         video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--level", "high"])
     # 20 steps leave densities near 0.3 everywhere: the default level 3 has no surface; nothing is written
     with pytest.raises(MitnerfError, match=r"nothing was written.*no surface at density level 3.*span \["):
         video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(tmp_path / "v"), "--frames", "2",
-                   "--resolution", "8", "--mesh-resolution", "8"])
+                   "--image-size", "8", "--mesh-resolution", "8"])
     assert not (tmp_path / "v").exists() and len(list(tmp_path.iterdir())) == 0
     run2d = fit(bunny_small, small(width=16, depth=2, n_coarse=16, iters=2, batch_rays=64), "drjit")
     save_checkpoint(run2d, tmp_path / "ckpt2d")

@@ -1,4 +1,5 @@
-"""``mitnerf`` / ``python -m mitnerf``: one sub-command per job, each a thin module.
+"""mitnerf: neural radiance fields on a CPU. Render a ground truth with Mitsuba 3 (`dataset`), fit a field to
+it or to your own data (`fit`), look at both (`show`, `video`), and run the experiments (`experiment`, `sweep`).
 
 Every bad input and every file-system failure (a full disk, a read-only folder) ends in one line on stderr
 (``mitnerf: error: ...``, naming the problem and the fix) and exit status 2, with nothing written. A training run
@@ -30,7 +31,7 @@ class Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> Parser:
-    parser = Parser(prog="mitnerf", description=__doc__.splitlines()[0])
+    parser = Parser(prog="mitnerf", description=" ".join(__doc__.split("\n\n")[0].split()))
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for module in (data_cmds, fit_cmd, video_cmd, experiment_cmd):
         module.register(sub)

@@ -1,111 +1,54 @@
-"""Command-line values checked where they are typed (``--batch 0`` or ``--lr nan`` end in one line before anything
-runs), and the flags that override a recipe: they default to ``None``, the value then comes from the recipe."""
+"""The flags that override a recipe, generated from the settings' declarations (:mod:`mitnerf.settings`): each
+training, rendering and occupancy setting and each field setting that declares a flag. Unset, a value comes from
+the recipe; ``--set KEY=VALUE`` reaches every other setting, checked by the same declarations."""
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
-import json
-
 from .._io import available_memory
-from ..errors import ConfigError, MitnerfError, check_number
-from ..fields import field_config
-from ..train.recipes import get_recipe, recipe_for
+from ..errors import ConfigError
+from ..fields import CONDITIONED, FIELDS
+from ..render.occupancy import OccupancyConfig
+from ..render.pipeline import RenderConfig
+from ..settings import add_flags, check_value, parse_set, show_value
+from ..train.config import TrainConfig
+from ..train.recipes import DEFAULT, RECIPES, get_recipe, recipe_for
+
+DEST = "recipe:"
+"""Where the parsed recipe flags land (``args.<DEST><key>``), apart from the command's own options."""
+GROUPS = [(TrainConfig, ""), (RenderConfig, ""), (OccupancyConfig, "occupancy."),
+          *((cls, "") for name, (cls, _) in FIELDS.items() if name not in CONDITIONED)]
+"""The configs whose flagged settings a recipe flag overrides, in the order the help lists them."""
 
 
-def number(integer: bool = False, lo=None, hi=None, strict_lo: bool = False):
-    """An argparse type: a finite number (a whole one if ``integer``) within the bounds."""
-    def parse(text: str):
-        try:
-            value = float(text)
-            if integer and not value.is_integer():
-                raise ValueError
-            value = int(value) if integer else value
-        except (ValueError, OverflowError):
-            raise argparse.ArgumentTypeError(f"expected {'a whole number' if integer else 'a number'}, "
-                                             f"got {text!r}") from None
-        try:
-            check_number("value", value, lo, hi, integer, strict_lo, flag="it")
-        except ConfigError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-        return value
-    parse.__name__ = "whole number" if integer else "number"
-    return parse
+def recipe_default(key: str) -> str:
+    """The default a recipe flag's help names: the default recipes' values, else those of the recipes that have
+    the setting (``grid-2d 10, grid-3d 60``; one value where they agree)."""
+    names = [DEFAULT[2], DEFAULT[3]] if get_recipe(DEFAULT[2]).has(key) else \
+        [n for n, r in RECIPES.items() if r.has(key) and r.model.field not in CONDITIONED]
+    values = {n: show_value(get_recipe(n).get(key)) for n in names}
+    if len(set(values.values())) == 1:
+        return f"{next(iter(values.values()))} in {'the default recipes' if names[:1] == [DEFAULT[2]] else 'the ' + ', '.join(names)}"
+    return ", ".join(f"{n} {v}" for n, v in values.items())
 
 
-def background(text: str) -> tuple:
-    try:
-        values = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}.get(text) or tuple(map(float, text.split(",")))
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(0.0 <= v <= 1.0 for v in values):
-        raise argparse.ArgumentTypeError(f"expected black, white or r,g,b with values in [0, 1], got {text!r}")
-    return values
-
-
-def key_value(text: str) -> tuple:
-    """``key=value``; the value is a JSON literal when it parses, else a string."""
-    if "=" not in text:
-        raise argparse.ArgumentTypeError(f"expected key=value, got {text!r}")
-    k, v = text.split("=", 1)
-    try:
-        return k.strip(), json.loads(v)
-    except json.JSONDecodeError:
-        return k.strip(), v
-
-
-# flag, recipe setting, argparse keyword arguments, help
-OVERRIDES = [
-    ("--iters", "iters", dict(type=number(True, 1, 10 ** 9)), "optimisation steps (an upper bound with a time budget)"),
-    ("--time-budget", "time_budget", dict(type=number(False, 0, 10 ** 7, strict_lo=True)), "seconds of training"),
-    ("--batch", "batch_rays", dict(type=number(True, 1, 1 << 22)), "rays per step"),
-    ("--lr", "lr", dict(type=number(False, 0, 10, strict_lo=True)), "peak learning rate"),
-    ("--lr-final", "lr_final", dict(type=number(False, 0, 10, strict_lo=True)), "final learning rate"),
-    ("--seed", "seed", dict(type=number(True, 0, 2 ** 32 - 1)), "seed of weights, batches and jitter"),
-    ("--val-every", "val_every", dict(type=number(True, 0, 10 ** 9)), "validate every N steps (0: at the end)"),
-    ("--threads", "threads", dict(type=number(True, 1, 1024)), "CPU threads"),
-    ("--depth-weight", "depth_weight", dict(type=number(False, 0, 1e6)),
-     "weight of DS-NeRF's depth loss on the dataset's depth (0: off)"),
-    ("--depth-sigma", "depth_sigma", dict(type=number(False, 0, 1e6, strict_lo=True)),
-     "width of the depth loss's Gaussian (world units)"),
-    ("--free-space-weight", "free_space_weight", dict(type=number(False, 0, 1e6)),
-     "weight of the free-space loss on the dataset's depth or alpha (0: off)"),
-    ("--solid-weight", "solid_weight", dict(type=number(False, 0, 1e6)),
-     "weight of the solid-behind-the-surface loss on the dataset's depth (0: off)"),
-    ("--distortion-weight", "distortion_weight", dict(type=number(False, 0, 1e6)),
-     "weight of mip-NeRF 360's distortion loss (0: off)"),
-    ("--opacity-weight", "opacity_weight", dict(type=number(False, 0, 1e6)), "weight of the opacity entropy (0: off)"),
-    ("--samples", "n_coarse", dict(type=number(True, 1, 4096)), "coarse samples per ray"),
-    ("--fine", "n_fine", dict(type=number(True, 0, 4096)), "importance samples per ray (0: no fine pass)"),
-    ("--background", "background", dict(type=background), "black, white or r,g,b"),
-    ("--method", "method", dict(choices=["replay", "autodiff"]), "volume integral"),
-    ("--occupancy", "occupancy.enabled", dict(action=argparse.BooleanOptionalAction), "empty-space skipping"),
-    ("--width", "width", dict(type=number(True, 2, 1024)), "MLP width"),
-    ("--depth", "depth", dict(type=number(True, 1, 32)), "MLP layers"),
-    ("--pos-L", "pos_L", dict(type=number(True, 0, 24)), "positional-encoding frequencies"),
-    ("--dir-L", "dir_L", dict(type=number(True, 0, 12)), "view-direction encoding frequencies"),
-    ("--resolution", "resolution", dict(type=number(True, 2, 8193)), "grid vertices per axis"),
-    ("--view-dependence", "view_dependent", dict(action=argparse.BooleanOptionalAction), "view-dependent colour"),
-    ("--sh-degree", "sh_degree", dict(type=number(True, 1, 8)),
-     "grid, hashlinear: degree of the view-dependent harmonics (2D up to 8, 3D up to 2)"),
-    ("--density-activation", "density_activation", dict(choices=["relu", "softplus", "trunc_exp"]), "density"),
-]
-
-
-def add_recipe_flags(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("recipe (every flag overrides one setting; unset: the recipe's value)")
-    g.add_argument("--recipe", default=None, help="a recipe by name (`mitnerf recipes`)")
-    g.add_argument("--field", default=None, help="the tuned recipe of this field family (grid, hashlinear, hashgrid, vanilla)")
-    for flag, key, kw, text in OVERRIDES:
-        g.add_argument(flag, dest=f"set_{key}", default=None, help=text, **kw)
-    g.add_argument("--set", dest="sets", action="append", default=[], type=key_value, metavar="KEY=VALUE",
-                   help="any other setting of the recipe (a field, render or train setting; repeatable)")
+def add_recipe_flags(p) -> None:
+    g = p.add_argument_group("recipe: each flag overrides one setting of the recipe")
+    g.add_argument("--recipe", default=None, help="a recipe by name: `mitnerf recipes` lists them (default: grid-2d "
+                   "for 2D data, grid-3d for 3D)")
+    g.add_argument("--field", default=None, choices=sorted({r.model.field for r in RECIPES.values()} - set(CONDITIONED)),
+                   help="the tuned recipe of this field family for the data's dimension (default: grid)")
+    seen: set = set()
+    for cls, prefix in GROUPS:
+        add_flags(g, cls, prefix=prefix, dest=DEST, overrides=True, shown=recipe_default, seen=seen)
+    g.add_argument("--set", dest="sets", action="append", default=[], type=parse_set, metavar="KEY=VALUE",
+                   help="any other setting of the recipe, by its name in `mitnerf recipes --verbose`; "
+                        "repeatable, the value in JSON (default: the recipe's)")
 
 
 def overrides(args) -> dict:
     """The settings the user typed, as ``{recipe key: value}``."""
-    out = {**{key: getattr(args, f"set_{key}") for _, key, _, _ in OVERRIDES}, **dict(args.sets)}
-    return {k: v for k, v in out.items() if v is not None}
+    out = {k[len(DEST):]: v for k, v in vars(args).items() if k.startswith(DEST) and v is not None}
+    return {**out, **dict(args.sets)}
 
 
 def recipe_from_args(args, dim: int):
@@ -113,47 +56,15 @@ def recipe_from_args(args, dim: int):
     if args.recipe and args.field:
         raise ConfigError("--recipe and --field both choose the recipe; pass one of them")
     base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dim)
-    check_set_types(base, args.sets)
+    for key, value in args.sets:
+        where = base.declared(key)
+        if where is None:
+            raise ConfigError(f"--set {key}: the recipe {base.name} has no setting {key!r}; "
+                              f"`mitnerf recipes --verbose` lists its settings")
+        check_value(*where, value, prefix="occupancy." if key.startswith("occupancy.") else "")
     recipe = base.override(**overrides(args)).validate()
     check_step_memory(recipe)
     return recipe
-
-
-def _kind(value) -> str:
-    if isinstance(value, bool):
-        return "true or false"
-    if isinstance(value, (int, float)):
-        return "a number"
-    if isinstance(value, (list, tuple)):
-        return "a list" + (f" of {_kind(value[0])[2:]}s" if value else "")
-    return "a string" if isinstance(value, str) else "null" if value is None else type(value).__name__
-
-
-def check_set_types(recipe, sets: list) -> None:
-    """A ``--set KEY=VALUE`` must have the type of the setting it replaces; unknown keys are left to ``validate``."""
-    r = recipe.model.render
-    current = {**dataclasses.asdict(recipe.train),
-               **{k: v for k, v in dataclasses.asdict(r).items() if k != "occupancy"},
-               **{f"occupancy.{k}": v for k, v in dataclasses.asdict(r.occupancy).items()}}
-    try:
-        current.update(dataclasses.asdict(field_config(recipe.model.field, dim=recipe.dim)))
-    except (MitnerfError, TypeError):
-        pass
-    current.update(recipe.model.field_args)
-    for key, value in sets:
-        old = current.get(key)
-        was = json.dumps(old, default=str).replace(" ", "")
-        if value is None and old is not None:         # null would be ignored, silently
-            raise ConfigError(f"--set {key}=null: {key} cannot be null; give a value, e.g. --set {key}={was}")
-        if value is None and key not in current:
-            raise ConfigError(f"--set {key}=null: the recipe has no setting {key!r}; see its settings with "
-                              "`mitnerf recipes`")
-        ok = _kind(value) == _kind(old) or (isinstance(old, (list, tuple)) and not old and isinstance(value, list))
-        if isinstance(value, list) and isinstance(old, (list, tuple)) and old:
-            ok = all(_kind(v) == _kind(old[0]) for v in value)
-        if old is not None and not ok:
-            raise ConfigError(f"--set {key} must be {_kind(old)}, got {json.dumps(value, default=str)[:40]}; "
-                              f"write it as the recipe does, e.g. --set {key}={was}")
 
 
 SAMPLE_BYTES = 32

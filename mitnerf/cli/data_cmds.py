@@ -3,66 +3,87 @@
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 from .._io import Output, write_new_file
 from ..data.cameras import check_pixel_memory
-from ..data.formats import DATASET_BYTES_PER_PIXEL, WRITERS, check_output, load_dataset, tiny_nerf_bytes
+from ..data.formats import DATASET_BYTES_PER_PIXEL, FORMATS, WRITERS, check_output, load_dataset, tiny_nerf_bytes
 from ..data.generate import make_dataset
 from ..data.rig import RigConfig, noise_preset
 from ..errors import ConfigError
 from ..scenes.gt_render import RenderSettings
 from ..scenes.looks import MATERIALS
 from ..scenes.registry import get_scene
+from ..settings import setting, show_value
 from ..viz.rigs import plot_rig_2d, plot_rig_3d
 from ..viz.strips import split_figures
-from .args import number
+from .command import add_command, options, parse
+
+
+@dataclass(kw_only=True)
+class DatasetCommand:
+    """``mitnerf dataset``: render a dataset of a scene (the rig's options: :class:`~mitnerf.data.rig.RigConfig`)."""
+
+    scene: str | None = setting(None, flag="--scene", metavar="NAME|FILE.xml", shown="none; give --scene or "
+                                "--polygon")
+    """A scene by name, with an optional look (bunny, vase, bunny_glossy, vase_plastic_env), or a Mitsuba XML
+    file."""
+    polygon: str | None = setting(None, flag="--polygon", metavar="FILE.json", shown="none")
+    """A JSON file holding a ring of [x, y] points: a 2D scene of your own."""
+    out: str = setting(flag="--out", metavar="DIR")
+    """Output folder: new, empty, or an earlier dataset of mitnerf's."""
+    overwrite: bool = setting(False, flag="--overwrite")
+    """Write into a folder that holds other files (they are left alone)."""
+    noise: float = setting(1.0, lo=0, hi=100, flag="--noise")
+    """Scale of all placement noise: 1 is radius 0.1, angle 2 degrees, position 0.05, look 1 degree."""
+    spp: int | None = setting(None, lo=1, hi=1 << 16, flag="--spp", unit="samples per pixel",
+                              shown="converged: 64, or 1024 with the path tracer")
+    """Samples per pixel for colour; fewer than converged gives a noisy ground truth."""
+    material: str | None = setting(None, choices=MATERIALS, flag="--material", shown="the scene's, diffuse")
+    """Surface: diffuse, plastic (needs --env), roughplastic, roughconductor, or textured (a barcode along a 2D
+    outline)."""
+    roughness: float | None = setting(None, lo=0, above=True, hi=1, flag="--roughness",
+                                      shown="roughplastic 0.25, roughconductor 0.3")
+    """GGX roughness of roughplastic or roughconductor: smaller gives sharper highlights."""
+    env: bool = setting(False, flag="--env")
+    """Light the scene by a sky with a sun instead of point lights."""
+    integrator: str | None = setting(None, choices=("all_lights", "path"), flag="--integrator",
+                                     shown="all_lights, path with --env")
+    """all_lights: a noise-free sum over point lights; path: Mitsuba's path tracer (what --env needs)."""
+    format: str | None = setting(None, choices=FORMATS, flag="--format", shown="nerf2d in 2D, blender in 3D")
+    """File format."""
+    kind: str | None = setting(None, choices=("2d", "3d"), flag="--kind", shown="read from the XML")
+    """Kind of a scene given as XML."""
+
+
+@dataclass(kw_only=True)
+class ShowCommand:
+    """``mitnerf show``: the pictures of a dataset."""
+
+    dataset: str = setting(flag="dataset")
+    """Dataset folder (or tiny-NeRF .npz)."""
+    out: str | None = setting(None, flag="--out", metavar="DIR", shown="out/show/<the dataset's name>")
+    """Where to write the PNGs."""
+    overwrite: bool = setting(False, flag="--overwrite")
+    """Write into a folder that holds other files (they are left alone)."""
+
+
+def rig_default(key: str) -> str:
+    if key.endswith("_std"):
+        return "from --noise"
+    return {"rig.radius": "4 in 2D, 3.5 in 3D", "rig.fov": "53.13 in 2D, 40 in 3D"}.get(
+        key, show_value(getattr(RigConfig(), key.split(".", 1)[1])))
 
 
 def register(sub) -> None:
-    p = sub.add_parser("dataset", help="render a dataset of a scene")
-    p.add_argument("--scene", help="scene name (with an optional look: bunny_glossy, "
-                   "vase_plastic_env), or a path to a Mitsuba XML file")
-    p.add_argument("--polygon", help="JSON file with a closed ring of [x, y] points (a 2D scene)")
-    p.add_argument("--out", required=True, help="output folder (new, empty, or an earlier dataset of mitnerf's)")
-    p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files "
-                   "(they are left alone)")
-    p.add_argument("--views", type=number(True, 0, 100_000), default=50, help="training views")
-    p.add_argument("--val", type=number(True, 0, 100_000), default=10, help="validation views")
-    p.add_argument("--test", type=number(True, 0, 100_000), default=20, help="test views (evenly spaced, noise-free)")
-    p.add_argument("--resolution", type=number(True, 0, 16384), default=100, help="pixels (per side in 3D)")
-    p.add_argument("--radius", type=number(False, 0, 1e4, True), help="camera distance (default 4 in 2D, 3.5 in 3D)")
-    p.add_argument("--fov", type=number(False, 0, 179, True), help="field of view in degrees")
-    p.add_argument("--layout", choices=["random", "even"], default="random", help="train/val placement")
-    p.add_argument("--noise", type=number(False, 0, 100), default=1.0,
-                   help="scale of all placement noise (1: radius 0.1, angle 2 deg, position 0.05, look 1 deg)")
-    for name in ("radius-std", "angle-std", "position-std", "look-std"):
-        p.add_argument(f"--{name}", type=number(False, 0, 1e4), help="override one noise parameter")
-    p.add_argument("--spp", type=number(True, 1, 1 << 16), help="samples per pixel for colour "
-                   "(default: converged, 64 with all_lights, 1024 with path; fewer gives a noisy ground truth)")
-    p.add_argument("--material", choices=list(MATERIALS), help="surface: diffuse (default), plastic (needs --env), "
-                   "roughplastic, roughconductor, or textured (a barcode along a 2D outline)")
-    p.add_argument("--roughness", type=number(False, 0, 1, True), help="GGX roughness of roughplastic (default "
-                   "0.25) or roughconductor (0.3): smaller gives sharper highlights")
-    p.add_argument("--env", action="store_true", help="light the scene by a sky with a sun instead of point lights")
-    p.add_argument("--integrator", choices=["all_lights", "path"], help="all_lights: noise-free sum over point "
-                   "lights (default); path: Mitsuba's path tracer (default with --env)")
-    p.add_argument("--seed", type=number(True, 0, 2 ** 32 - 1), default=0,
-                   help="seed of placement noise and of the renderer")
-    p.add_argument("--format", choices=["nerf2d", "blender", "nerfstudio", "tiny_nerf"],
-                   help="file format (default: nerf2d for 2D, blender for 3D)")
-    p.add_argument("--kind", choices=["2d", "3d"], help="kind of a scene given as XML")
-    p.set_defaults(run=run_dataset)
-
-    s = sub.add_parser("show", help="write the views strip, depth strip and rig plot of a dataset")
-    s.add_argument("dataset", help="dataset folder (or tiny-NeRF .npz)")
-    s.add_argument("--out", help="where to write the PNGs (default: out/show/<the dataset's name>)")
-    s.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files "
-                   "(they are left alone)")
-    s.set_defaults(run=run_show)
+    add_command(sub, "dataset", DatasetCommand, run_dataset, (RigConfig, "rig.", rig_default),
+                help="render a dataset of a scene (ground truth by Mitsuba 3)")
+    add_command(sub, "show", ShowCommand, run_show, help="write a dataset's pictures: views, depth, the camera rig")
 
 
 def run_dataset(args) -> int:
+    rig_given, args = options(RigConfig, args, "rig."), parse(args)
     scene = get_scene(args.scene, polygon=args.polygon, kind=args.kind, material=args.material, env=args.env,
                       roughness=args.roughness)
     integrator = args.integrator or ("path" if scene.lighting == "env" else "all_lights")
@@ -72,15 +93,14 @@ def run_dataset(args) -> int:
     if (fmt == "nerf2d" and dim == 3) or (fmt in ("blender", "tiny_nerf") and dim == 2):
         raise ConfigError(f"--format {fmt} cannot hold a {dim}D dataset; use "
                           f"{'nerf2d or nerfstudio' if dim == 2 else 'blender, nerfstudio or tiny_nerf'}")
-    noise = {k: v if getattr(args, k) is None else getattr(args, k) for k, v in noise_preset(args.noise).items()}
-    rig = RigConfig(dim=dim, n_train=args.views, n_val=args.val, n_test=args.test, radius=args.radius,
-                    resolution=args.resolution, fov=args.fov, layout=args.layout, seed=args.seed, **noise)
+    rig = RigConfig(dim=dim, **{**noise_preset(args.noise), **rig_given})
     rig.validate()
-    pixels = (args.views + args.val + args.test) * args.resolution ** (dim - 1)
-    check_pixel_memory(args.views + args.val + args.test, args.resolution, args.resolution if dim == 3 else 1)
+    views = rig.n_train + rig.n_val + rig.n_test
+    pixels = views * rig.resolution ** (dim - 1)
+    check_pixel_memory(views, rig.resolution, rig.resolution if dim == 3 else 1)
     inputs = [args.polygon, args.scene if args.scene and Path(args.scene).exists() else None]
     target = check_output(args.out, fmt, args.overwrite, inputs, size=pixels * DATASET_BYTES_PER_PIXEL)
-    ds = make_dataset(scene, rig, RenderSettings(spp=spp, seed=args.seed, integrator=integrator))
+    ds = make_dataset(scene, rig, RenderSettings(spp=spp, seed=rig.seed, integrator=integrator))
     if target is None:
         write_new_file(args.out, tiny_nerf_bytes(ds))
         where = args.out
@@ -94,6 +114,7 @@ def run_dataset(args) -> int:
 
 
 def run_show(args) -> int:
+    args = parse(args)
     ds = load_dataset(args.dataset)
     out = Path(args.out) if args.out else Path("out", "show", Path(os.path.abspath(args.dataset)).stem)
     target, paths = Output(out, "figures", args.overwrite, inputs=[args.dataset]), []

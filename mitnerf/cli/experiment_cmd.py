@@ -10,77 +10,79 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from dataclasses import dataclass
 import shlex
 import time
 from pathlib import Path
 
 from .._io import Output
-from ..errors import ConfigError, check_number
+from ..errors import ConfigError
 from ..experiments import EXPERIMENTS
 from ..experiments.reproduction import REPRODUCE, record, write
-from ..experiments.sweep import BUDGETS, SCENES, Config, build_rows, parse_budget, run as sweep_rows
+from ..experiments.sweep import Config, build_rows, parse_budget, run as sweep_rows
 from ..results import load_results
-from .args import key_value, number
+from ..settings import check, check_value, default_of, field_named, parse_set, setting, show_value
+from .command import add_command, options, parse
+
+
+@dataclass(kw_only=True)
+class ExperimentCommand:
+    """``mitnerf experiment``: one experiment of the source reports, or all of them."""
+
+    name: str = setting(flag="name", choices=(*EXPERIMENTS, "all"))
+    """The experiment (all: the four that test the source reports, then REPRODUCTION.md)."""
+    out: str = setting(flag="--out", metavar="DIR")
+    """Output folder (CSV, figures, report.md)."""
+    overwrite: bool = setting(False, flag="--overwrite")
+    """Write into a folder that holds other files (they are left alone)."""
+    quick: bool = setting(False, flag="--quick")
+    """A smoke run of a few steps: its report draws no conclusions."""
+    seed: int = setting(0, lo=0, hi=2 ** 31, flag="--seed")
+    """Seed of the experiment's data and runs."""
+
+
+@dataclass(kw_only=True)
+class SweepCommand:
+    """``mitnerf sweep``: speed against accuracy (the sweep's options: :class:`~mitnerf.experiments.sweep.Config`)."""
+
+    out: str = setting(flag="--out", metavar="DIR")
+    """Output folder (sweep.csv, sweep.md, pareto.png); a rerun skips the finished rows."""
+    overwrite: bool = setting(False, flag="--overwrite")
+    """Write into a folder that holds other files (they are left alone)."""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("experiment", help="run an experiment; writes CSV, figures and report.md")
-    p.add_argument("name", choices=[*EXPERIMENTS, "all"])
-    p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files")
-    p.add_argument("--quick", action="store_true", help="a small version (about a minute)")
-    p.add_argument("--seed", type=number(True, 0, 2 ** 31), default=0)
-    p.add_argument("--set", dest="sets", action="append", default=[], type=key_value, metavar="KEY=VALUE",
-                   help="change one setting of the experiment's Config (repeatable)")
-    p.set_defaults(run=run_experiment)
-    p = sub.add_parser("sweep", help="train a grid of configurations; test PSNR against wall time, Pareto front")
-    p.add_argument("--out", required=True, help="output folder (sweep.csv, sweep.md, pareto.png)")
-    p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files")
-    p.add_argument("--quick", action="store_true", help="tiny rigs, tiny models, a few steps (a smoke test)")
-    p.add_argument("--workers", type=number(True, 1, 256), default=1, help="parallel runs; workers x threads <= cores")
-    p.add_argument("--threads", type=number(True, 1, 256), default=2, help="CPU threads per run")
-    p.add_argument("--executor", choices=["local", "dask"], default="local",
-                   help="local: a pool of processes; dask: a distributed cluster (needs --scheduler)")
-    p.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
-    p.add_argument("--scenes", nargs="+", default=list(SCENES), help=f"scenes (default: {' '.join(SCENES)})")
-    p.add_argument("--budgets", nargs="+",
-                   help=f"training budgets, seconds '20s' or steps '500it' (default: {' '.join(BUDGETS)})")
-    p.add_argument("--no-reference", action="store_true", help="leave out the 600 s torch reference on bunny")
-    p.add_argument("--retry-failed", action="store_true", help="rerun rows recorded as failed")
-    p.add_argument("--seed", type=number(True, 0, 2 ** 31), default=0)
-    p.set_defaults(run=run_sweep)
+    p = add_command(sub, "experiment", ExperimentCommand, run_experiment,
+                    help="run an experiment; writes CSV, figures and report.md")
+    p.add_argument("--set", dest="sets", action="append", default=[], type=parse_set, metavar="KEY=VALUE",
+                   help="change one setting of the experiment's Config; repeatable, the value in JSON (default: "
+                        "the experiment's)")
+    add_command(sub, "sweep", SweepCommand, run_sweep,
+                (Config, "sweep.", lambda key: show_value(default_of(field_named(Config, key.split(".", 1)[1])))),
+                help="train a grid of configurations: test PSNR against wall time, the Pareto front")
 
 
 def configure(module, quick: bool, seed: int, sets: list) -> object:
-    """The experiment's config with the ``--set`` values, each checked against its default (type; > 0 where it is)."""
+    """The experiment's config with the ``--set`` values, each checked by its declaration."""
     cfg = module.quick(seed) if quick else module.Config(seed=seed)
-    fields = {f.name: f for f in dataclasses.fields(cfg)}
     for key, value in sets:
-        if key not in fields:
-            raise ConfigError(f"the experiment has no setting {key!r}; its settings are {', '.join(sorted(fields))}")
-        old = getattr(cfg, key)
-        if isinstance(old, (tuple, list)) and isinstance(value, list):
-            value = tuple(value)
-        elif isinstance(old, bool) or isinstance(value, bool):
-            if type(value) is not type(old):
-                raise ConfigError(f"--set {key} must be true or false, got {value!r}")
-        elif isinstance(old, (int, float)):
-            check_number(key, value, 0, None, integer=isinstance(old, int) and not isinstance(old, bool),
-                         strict_lo=old > 0, flag=f"--set {key}")
-        elif old is not None and type(value) is not type(old):
-            raise ConfigError(f"--set {key} must be like {old!r}, got {value!r}")
-        setattr(cfg, key, value)
+        f = field_named(type(cfg), key)
+        if f is None:
+            names = ", ".join(sorted(g.name for g in dataclasses.fields(cfg)))
+            raise ConfigError(f"the experiment has no setting {key!r}; its settings are {names}")
+        setattr(cfg, key, check_value(type(cfg), f, value))
     return cfg
 
 
 def run_experiment(args) -> int:
+    sets, args = args.sets, parse(args)
     names = REPRODUCE if args.name == "all" else (args.name,)
-    if args.name == "all" and args.sets:
+    if args.name == "all" and sets:
         raise ConfigError("--set applies to one experiment; run `mitnerf experiment NAME --set ...` instead of all")
-    cfgs = {n: configure(EXPERIMENTS[n], args.quick, args.seed, args.sets) for n in names}
+    cfgs = {n: configure(EXPERIMENTS[n], args.quick, args.seed, sets) for n in names}
     target = Output(Path(args.out), f"experiment {args.name}", args.overwrite, incremental=True)
     out = target.claim()
-    sets = [shlex.quote(f"{k}={v if isinstance(v, str) else json.dumps(v)}") for k, v in args.sets]
+    sets = [shlex.quote(f"{k}={v if isinstance(v, str) else json.dumps(v)}") for k, v in sets]
     command = " ".join(["mitnerf experiment", args.name, "--out", shlex.quote(args.out)]
                        + (["--seed", str(args.seed)] if args.seed else []) + [f"--set {s}" for s in sets])
     for n in names:
@@ -98,12 +100,10 @@ def run_experiment(args) -> int:
 
 
 def run_sweep(args) -> int:
-    for b in args.budgets or []:
+    cfg, args = Config(**options(Config, args, "sweep.")), parse(args)
+    check(cfg)
+    for b in cfg.budgets or []:
         parse_budget(b)
-    cfg = Config(scenes=tuple(args.scenes), budgets=tuple(args.budgets) if args.budgets else None,
-                 reference=not args.no_reference, workers=args.workers, threads=args.threads,
-                 executor=args.executor, scheduler=args.scheduler, quick=args.quick, seed=args.seed,
-                 retry_failed=args.retry_failed)
     if cfg.executor == "dask" and not cfg.scheduler:
         raise ConfigError("--executor dask needs --scheduler ADDRESS (start one with 'dask scheduler')")
     build_rows(cfg)                                          # refuses unknown scenes before anything is written

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import signal
+from dataclasses import dataclass
 from pathlib import Path
 
 from .._io import Output
@@ -20,51 +21,72 @@ from ..train.fit import check_dataset, fit
 from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
+from ..settings import setting
 from .args import add_recipe_flags, overrides, recipe_from_args
+from .command import add_command, parse
+
+
+@dataclass(kw_only=True)
+class FitCommand:
+    """``mitnerf fit``: train a recipe on a dataset, evaluate it on the test views, write it."""
+
+    data: str | None = setting(None, flag="--data", metavar="DIR", shown="none; give --data or --resume")
+    """Dataset folder (NeRF2D, Blender, nerfstudio, instant-ngp) or tiny-NeRF .npz."""
+    out: str | None = setting(None, flag="--out", metavar="DIR", shown="none: nothing is kept")
+    """Folder for the checkpoint, metrics and figures."""
+    overwrite: bool = setting(False, flag="--overwrite")
+    """Write into an --out folder that holds other files (they are left alone)."""
+    resume: str | None = setting(None, flag="--resume", metavar="RUN", shown="none")
+    """Continue an interrupted run from its --out folder."""
+    backend: str | None = setting(None, choices=("drjit", "torch"), flag="--backend",
+                                  shown="drjit, or a resumed run's own")
+    """Engine: drjit, or torch (the PyTorch twin: pip install -e .[torch])."""
+    auto: bool = setting(False, flag="--auto")
+    """Choose the field, its size, view dependence and the losses from probe runs as long as the real one, and
+    say why."""
+    figures: bool = setting(True, flag="--figures")
+    """Write figures beside the checkpoint and metrics."""
+
+
+@dataclass(kw_only=True)
+class RecipesCommand:
+    """``mitnerf recipes``: the training recipes with their measured figures."""
+
+    dim: int | None = setting(None, choices=(2, 3), flag="--dim", shown="both")
+    """Only the recipes for datasets of this dimension."""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("fit", help="train a field on a dataset (the default recipe unless told otherwise)")
-    p.add_argument("--data", help="dataset folder (NeRF2D, Blender, nerfstudio) or tiny-NeRF .npz")
-    p.add_argument("--out", help="folder for the checkpoint, metrics and figures")
-    p.add_argument("--overwrite", action="store_true",
-                   help="write into an --out folder that holds other files (they are left alone)")
-    p.add_argument("--resume", metavar="RUN", help="continue an interrupted run from its --out folder")
-    p.add_argument("--backend", choices=["drjit", "torch"], help="engine (default: drjit)")
-    p.add_argument("--auto", action="store_true", help="choose the field, its size, view dependence and the losses "
-                   "from probe runs as long as the real one, and say why")
-    p.add_argument("--no-figures", action="store_true", help="write the checkpoint and metrics only")
-    add_recipe_flags(p)
-    p.set_defaults(run=run_fit)
-    r = sub.add_parser("recipes", help="list the training recipes with their measured figures")
-    r.add_argument("--dim", type=int, choices=[2, 3], help="only the recipes for this dimension")
-    r.set_defaults(run=run_recipes)
+    add_recipe_flags(add_command(sub, "fit", FitCommand, run_fit,
+                                 help="train a field on a dataset (the default recipe unless told otherwise)"))
+    add_command(sub, "recipes", RecipesCommand, run_recipes,
+                help="list the training recipes with their measured figures")
 
 
 def run_fit(args) -> int:
-    resume = None
-    if args.resume:
-        if overrides(args) or args.recipe or args.field or args.auto:
+    resume, cmd = None, parse(args)
+    if cmd.resume:
+        if overrides(args) or args.recipe or args.field or cmd.auto:
             raise ConfigError("--resume continues the run as it was; drop the recipe flags")
-        prior, resume = load_checkpoint(args.resume, args.backend, need="--resume")
-        data = args.data or prior.dataset_meta.get("path")
+        prior, resume = load_checkpoint(cmd.resume, cmd.backend, need="--resume")
+        data = cmd.data or prior.dataset_meta.get("path")
         if not data:
-            raise ConfigError(f"{args.resume} does not record its dataset; pass --data DIR")
-        if not args.data and not os.path.lexists(data):
-            raise ConfigError(f"the dataset {args.resume} was trained on is no longer at {data}; pass --data with "
+            raise ConfigError(f"{cmd.resume} does not record its dataset; pass --data DIR")
+        if not cmd.data and not os.path.lexists(data):
+            raise ConfigError(f"the dataset {cmd.resume} was trained on is no longer at {data}; pass --data with "
                               "where it is now")
-        recipe, backend, out_path = prior.recipe, prior.backend.name, Path(args.resume)
+        recipe, backend, out_path = prior.recipe, prior.backend.name, Path(cmd.resume)
         dataset = load_dataset(data)
     else:
-        if not args.data:
+        if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
-        data, dataset = args.data, load_dataset(args.data)
+        data, dataset = cmd.data, load_dataset(cmd.data)
         recipe = recipe_from_args(args, dataset.dim)
-        backend, out_path = args.backend or "drjit", Path(args.out) if args.out else None
+        backend, out_path = cmd.backend or "drjit", Path(cmd.out) if cmd.out else None
     check_dataset(dataset, need_test=True)
-    out = Output(out_path, "fit", args.overwrite, inputs=[data],
+    out = Output(out_path, "fit", cmd.overwrite, inputs=[data],
                  size=checkpoint_bytes(recipe, dataset.dim)) if out_path else None      # refused before training
-    if args.auto:
+    if cmd.auto:
         if args.recipe:
             raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")
         cfg = AutoConfig(families=(args.field,)) if args.field else None
@@ -72,7 +94,7 @@ def run_fit(args) -> int:
         for line in reasons:
             print(f"auto: {line}")
     print(f"recipe {recipe.summary()} ({backend})")
-    return train_and_report(dataset, recipe, backend, out, resume, figures=not args.no_figures)
+    return train_and_report(dataset, recipe, backend, out, resume, figures=cmd.figures)
 
 
 def train_and_report(dataset, recipe, backend: str, out: Output | None, resume=None, figures: bool = True) -> int:
@@ -120,6 +142,7 @@ def save(out: Output, run, record=None, dataset=None) -> list:
 
 
 def run_recipes(args) -> int:
+    args = parse(args)
     results = load_results()
     for name, r in RECIPES.items():
         if args.dim and r.dim != args.dim:

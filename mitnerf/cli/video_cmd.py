@@ -5,8 +5,8 @@ trained 3D field, looking at the origin) and, unless ``--no-mesh``, ``mesh.ply``
 
 from __future__ import annotations
 
-import argparse
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 from .._io import Output
@@ -17,41 +17,50 @@ from ..scenes.registry import get_scene
 from ..train.checkpoint import load_checkpoint
 from ..viz.rigs import plot_mesh_comparison
 from ..viz.video import OrbitConfig, orbit_video
-from .args import number
+from ..settings import setting, show_value
+from .command import add_command, options, parse
 
 
-def parse_level(text: str) -> float | str:
-    if text == "auto":
-        return "auto"
-    try:
-        value = float(text)
-    except ValueError:
-        raise MitnerfError(f"--level must be a density (a number such as 10) or 'auto', got {text!r}") from None
-    if not (value > 0 and value < float("inf")):
-        raise MitnerfError(f"--level must be a positive, finite density, got {text}; try 3 or 'auto'")
-    return value
+def parse_level(text: str) -> str:
+    """``auto`` or a positive, finite density (kept as text)."""
+    if text != "auto":
+        try:
+            value = float(text)
+        except ValueError:
+            raise MitnerfError(f"--level must be a density (a number such as 10) or 'auto', got {text!r}") from None
+        if not (value > 0 and value < float("inf")):
+            raise MitnerfError(f"--level must be a positive, finite density, got {text}; try 3 or 'auto'")
+    return text
+
+
+@dataclass(kw_only=True)
+class VideoCommand:
+    """``mitnerf video``: a 360 degree orbit of a trained 3D field and its mesh (the orbit's options:
+    :class:`~mitnerf.viz.video.OrbitConfig`)."""
+
+    checkpoint: str = setting(flag="--checkpoint", metavar="RUN")
+    """A trained 3D model: the folder `mitnerf fit` wrote."""
+    out: str = setting(flag="--out", metavar="DIR")
+    """Folder for the videos and the mesh."""
+    overwrite: bool = setting(False, flag="--overwrite")
+    """Write into a folder that holds other files (they are left alone)."""
+    mesh: bool = setting(True, flag="--mesh")
+    """Also extract the density's mesh and compare it with the ground truth."""
+    level: str = setting(str(LEVEL), flag="--level", parse=parse_level, metavar="DENSITY|auto")
+    """Density of the mesh surface, or auto (the level of mitnerf's geometry metrics); grid fields peak around
+    10-30, so level 10 cuts holes in them."""
+    mesh_resolution: int = setting(128, lo=2, hi=1024, flag="--mesh-resolution", unit="nodes per side")
+    """Marching-cubes grid of the mesh."""
+    chamfer_points: int = setting(100_000, lo=1, hi=10 ** 7, flag="--chamfer-points")
+    """Surface samples per mesh for the Chamfer distance."""
+    backend: str | None = setting(None, choices=("drjit", "torch"), flag="--backend", shown="the checkpoint's")
+    """Engine that renders."""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("video", help="turn-table video (colour, depth) and mesh of a trained 3D field",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    p.add_argument("--checkpoint", required=True, help="checkpoint folder (the --out of `mitnerf fit`)")
-    p.add_argument("--out", required=True, help="folder for the videos and the mesh")
-    p.add_argument("--overwrite", action="store_true", help="write into a folder that holds other files")
-    p.add_argument("--frames", type=number(True, 1, 100_000), default=120, help="frames in one 360 degree turn")
-    p.add_argument("--resolution", type=number(True, 1, 4096), default=100, help="frame width and height in pixels")
-    p.add_argument("--elevation", type=number(False, -90, 90), default=25.0, help="camera elevation in degrees")
-    p.add_argument("--radius", type=number(False, 0, 1e4, True), default=3.5, help="camera distance from the origin")
-    p.add_argument("--fov", type=number(False, 0, 179, True), default=40.0, help="horizontal field of view, degrees")
-    p.add_argument("--fps", type=number(False, 0, 1000, True), default=30.0, help="playback frames per second")
-    p.add_argument("--mesh", action=argparse.BooleanOptionalAction, default=True,
-                   help="also extract the mesh, compare it with the ground truth")
-    p.add_argument("--level", default=str(LEVEL), help="density of the mesh surface, or 'auto' (the level of "
-                   "mitnerf's geometry metrics; grid fields peak around 10-30, so level 10 cuts holes in them)")
-    p.add_argument("--mesh-resolution", type=number(True, 2, 1024), default=128, help="marching-cubes nodes per side")
-    p.add_argument("--chamfer-points", type=number(True, 1, 10 ** 7), default=100_000, help="surface samples per mesh")
-    p.add_argument("--backend", choices=["drjit", "torch"], help="default: the checkpoint's")
-    p.set_defaults(run=run)
+    add_command(sub, "video", VideoCommand, run,
+                (OrbitConfig, "orbit.", lambda key: show_value(getattr(OrbitConfig(), key.split(".", 1)[1]))),
+                help="a turn-table video (colour, depth) and the mesh of a trained 3D field")
 
 
 def ground_truth(meta: dict) -> tuple[Path | None, Path | None]:
@@ -64,10 +73,9 @@ def ground_truth(meta: dict) -> tuple[Path | None, Path | None]:
 
 
 def run(args) -> int:
-    level = parse_level(args.level)
-    cfg = OrbitConfig(n_frames=args.frames, resolution=args.resolution, elevation=args.elevation,
-                      radius=args.radius, fov=args.fov, fps=args.fps)
+    cfg, args = OrbitConfig(**options(OrbitConfig, args, "orbit.")), parse(args)
     cfg.validate()
+    level = args.level if args.level == "auto" else float(args.level)
     target = Output(args.out, "video", args.overwrite, inputs=[args.checkpoint])
     model, _ = load_checkpoint(args.checkpoint, args.backend, dim=3, need="`mitnerf video` (a 360 degree orbit)")
     with target.staged() as tmp:

@@ -10,7 +10,7 @@ from typing import Literal
 
 import numpy as np
 
-from ..errors import MitnerfError
+from ..settings import check, setting
 from .cameras import Cameras
 
 
@@ -18,35 +18,35 @@ from .cameras import Cameras
 class RigConfig:
     """Camera placement. Every random draw comes from ``numpy.random.default_rng(seed)``."""
 
-    dim: Literal[2, 3] = 2
+    dim: Literal[2, 3] = setting(2, choices=(2, 3))
     """2: a circle in the z = 0 plane (1D views). 3: a (hemi)sphere (2D images)."""
-    n_train: int = 50
+    n_train: int = setting(50, lo=1, hi=100_000, flag="--views")
     """Training views (random and noisy)."""
-    n_val: int = 10
+    n_val: int = setting(10, lo=0, hi=100_000, flag="--val")
     """Validation views (random and noisy)."""
-    n_test: int = 20
+    n_test: int = setting(20, lo=0, hi=100_000, flag="--test")
     """Test views: evenly spaced, noise-free (in 3D: an orbit at ``test_elevation``)."""
-    radius: float | None = None
+    radius: float | None = setting(None, lo=0, above=True, hi=1e4, flag="--radius", unit="world units")
     """Distance of the cameras from the origin (world units). Default: 4 in 2D (NeRF2D), 3.5 in 3D."""
-    resolution: int = 100
+    resolution: int = setting(100, lo=1, hi=16384, flag="--image-size", unit="pixels")
     """Pixels along the 1D image (2D) or along each side of the image (3D)."""
-    fov: float | None = None
+    fov: float | None = setting(None, lo=0, above=True, hi=179, flag="--fov", unit="degrees")
     """Field of view in degrees (2D: along the image; 3D: horizontal). Default: 53.13 in 2D (NeRF2D), 40 in 3D."""
-    layout: Literal["random", "even"] = "random"
+    layout: Literal["random", "even"] = setting("random", flag="--layout")
     """Train/val placement: uniform at random, or evenly spaced (sparse-view studies)."""
-    surface: Literal["hemisphere", "sphere"] = "hemisphere"
+    surface: Literal["hemisphere", "sphere"] = setting("hemisphere")
     """3D only: where train/val cameras may stand."""
-    test_elevation: float = 25.0
+    test_elevation: float = setting(25.0, lo=-89.9, hi=89.9, unit="degrees")
     """3D only: elevation of the test orbit in degrees."""
-    radius_std: float = 0.0
+    radius_std: float = setting(0.0, lo=0, hi=1e4, flag="--radius-std", unit="world units")
     """Gaussian noise on the camera distance (world units)."""
-    angle_std: float = 0.0
+    angle_std: float = setting(0.0, lo=0, hi=1e4, flag="--angle-std", unit="degrees")
     """Gaussian noise on the placement angle(s) in degrees (2D: around the circle; 3D: azimuth and elevation)."""
-    position_std: float = 0.0
+    position_std: float = setting(0.0, lo=0, hi=1e4, flag="--position-std", unit="world units")
     """Isotropic Gaussian jitter of the camera position (world units), after placement."""
-    look_std: float = 0.0
+    look_std: float = setting(0.0, lo=0, hi=1e4, flag="--look-std", unit="degrees")
     """Gaussian noise on the viewing direction in degrees (2D: one angle; 3D: yaw and pitch)."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 32 - 1, flag="--seed")
     """Seed of the placement noise."""
 
     def __post_init__(self):
@@ -59,19 +59,7 @@ class RigConfig:
         return self.resolution / 2 / np.tan(np.radians(fov) / 2)
 
     def validate(self) -> None:
-        if self.dim not in (2, 3):
-            raise MitnerfError(f"rig dim must be 2 or 3, got {self.dim}")
-        if self.resolution < 1:
-            raise MitnerfError(f"resolution must be at least 1 pixel, got {self.resolution}; pass --resolution 100")
-        if self.n_train < 1:
-            raise MitnerfError("zero training views requested; pass --views N with N >= 1")
-        if self.n_val < 0 or self.n_test < 0:
-            raise MitnerfError("view counts cannot be negative")
-        if not self.radius > 0:
-            raise MitnerfError(f"camera radius must be positive, got {self.radius}")
-        for name in ("radius_std", "angle_std", "position_std", "look_std"):
-            if getattr(self, name) < 0:
-                raise MitnerfError(f"{name} is a standard deviation and cannot be negative")
+        check(self)
 
 
 def noise_preset(level: float) -> dict[str, float]:

@@ -13,11 +13,19 @@ from pathlib import Path
 
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig
+from ..settings import setting
 from ..train.recipes import get_recipe
 from ..viz.charts import series_figure
 from ..viz.panels import density_panel, depth_panel, image_grid, strip_panel
 from .claims import judged
-from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
+from .report import (
+    markdown_table,
+    mean_std,
+    summarise,
+    train_row,
+    write_csv,
+    write_report,
+)
 
 METHODS = (("NeRF", False), ("DS-NeRF", True))
 
@@ -26,31 +34,31 @@ METHODS = (("NeRF", False), ("DS-NeRF", True))
 class Config:
     """The NeRF / DS-NeRF comparison."""
 
-    scenes: tuple = ("square", "square_concave", "bunny", "tu")
+    scenes: tuple = setting(("square", "square_concave", "bunny", "tu"))
     """2D scenes (NeRF2D's four)."""
-    views: tuple = (2, 5, 10)
+    views: tuple = setting((2, 5, 10), lo=1, hi=100_000)
     """Numbers of evenly spaced training views."""
-    width: int = 32
+    width: int = setting(32, lo=2, hi=1024)
     """MLP width."""
-    depth: int = 4
+    depth: int = setting(4, lo=1, hi=32)
     """MLP layers."""
-    pos_L: int = 8
+    pos_L: int = setting(8, lo=0, hi=24)
     """Position frequencies."""
-    samples: int = 64
+    samples: int = setting(64, lo=1, hi=4096)
     """Stratified samples per ray."""
-    steps: int = 500
+    steps: int = setting(500, lo=1, hi=10 ** 9)
     """Training steps of every run."""
-    batch_rays: int = 512
+    batch_rays: int = setting(512, lo=1, hi=1 << 22)
     """Rays per step (2 to 10 views hold only 200-1000 rays)."""
-    depth_weight: float = 0.02
+    depth_weight: float = setting(0.02, lo=0, hi=1e6)
     """lambda: weight of the depth loss."""
-    depth_sigma: float = 0.05
+    depth_sigma: float = setting(0.05, lo=0, above=True, hi=1e6)
     """sigma-hat: width of the target termination distribution (world units)."""
-    seeds: int = 2
+    seeds: int = setting(2, lo=1, hi=10 ** 6)
     """Runs per (scene, views, method)."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 31)
     """Seed of the rigs and of the first run."""
-    quick: bool = False
+    quick: bool = setting(False)
     """A smoke run: its report judges nothing."""
 
 

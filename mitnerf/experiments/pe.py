@@ -12,40 +12,48 @@ from pathlib import Path
 
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig, noise_preset
+from ..settings import setting
 from ..train.recipes import get_recipe
 from ..viz.charts import series_figure
 from ..viz.panels import density_panel, image_grid, strip_panel
 from .claims import judged
-from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
+from .report import (
+    markdown_table,
+    mean_std,
+    summarise,
+    train_row,
+    write_csv,
+    write_report,
+)
 
 
 @dataclass
 class Config:
     """The positional-encoding sweep."""
 
-    Ls: tuple = (0, 1, 2, 4, 6, 8, 10)
+    Ls: tuple = setting((0, 1, 2, 4, 6, 8, 10), lo=0, hi=24)
     """Position frequencies to compare."""
-    scene: str = "bunny"
+    scene: str = setting("bunny")
     """2D scene."""
-    n_train: int = 50
+    n_train: int = setting(50, lo=1, hi=100_000)
     """Training views (random, noisy: the NeRF2D protocol)."""
-    width: int = 32
+    width: int = setting(32, lo=2, hi=1024)
     """MLP width."""
-    depth: int = 4
+    depth: int = setting(4, lo=1, hi=32)
     """MLP layers."""
-    samples: int = 64
+    samples: int = setting(64, lo=1, hi=4096)
     """Stratified samples per ray."""
-    steps: int = 1000
+    steps: int = setting(1000, lo=1, hi=10 ** 9)
     """Training steps of every run."""
-    batch_rays: int = 512
+    batch_rays: int = setting(512, lo=1, hi=1 << 22)
     """Rays per step."""
-    lr: float = 1e-2
+    lr: float = setting(1e-2, lo=0, above=True, hi=10)
     """Initial learning rate (decays to 1/25 of it)."""
-    seeds: int = 2
+    seeds: int = setting(2, lo=1, hi=10 ** 6)
     """Runs per L (seeds ``seed .. seed + seeds - 1``)."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 31)
     """Seed of the rig and of the first run."""
-    quick: bool = False
+    quick: bool = setting(False)
     """A smoke run: its report judges nothing."""
 
 

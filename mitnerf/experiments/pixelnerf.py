@@ -21,60 +21,68 @@ from ..data.rig import RigConfig, noise_preset
 from ..fields.pixelnerf import PixelNeRFConfig
 from ..scenes.procedural import outline_scene
 from ..scenes.registry import get_scene
+from ..settings import setting
 from ..train.metrics import depth_error, psnr, ssim
 from ..train.pixelnerf import PixelTrainer, pick_views, scene_views
 from ..train.recipes import get_recipe
 from ..viz.charts import series_figure
 from ..viz.panels import density_panel, image_grid, strip_panel
 from .claims import judged
-from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
+from .report import (
+    markdown_table,
+    mean_std,
+    summarise,
+    train_row,
+    write_csv,
+    write_report,
+)
 
 
 @dataclass
 class Config:
     """Sizes and budgets (defaults: the full run, whose time `mitnerf experiment all` records)."""
 
-    n_outlines: int = 48
+    n_outlines: int = setting(48, lo=0, hi=10 ** 6)
     """Procedural outlines pixelNeRF is trained on."""
-    extra_scenes: tuple = ("square", "square_concave")
+    extra_scenes: tuple = setting(("square", "square_concave"))
     """Named scenes added to the training set (never bunny or tu: they are the test)."""
-    train_views: int = 24
+    train_views: int = setting(24, lo=1, hi=100_000)
     """Random noisy views per training scene."""
-    outline_test_views: int = 8
+    outline_test_views: int = setting(8, lo=1, hi=100_000)
     """Evenly spaced test views per outline."""
-    n_seen: int = 4
+    n_seen: int = setting(4, lo=0, hi=10 ** 6)
     """Training outlines whose held-out views are scored."""
-    n_unseen: int = 4
+    n_unseen: int = setting(4, lo=0, hi=10 ** 6)
     """Outlines never trained on, scored like the training ones."""
-    eval_scenes: tuple = ("bunny", "tu")
+    eval_scenes: tuple = setting(("bunny", "tu"))
     """Scenes pixelNeRF never sees in training; NeRF is fitted to them."""
-    eval_train_views: int = 40
+    eval_train_views: int = setting(40, lo=1, hi=100_000)
     """Views of each evaluation scene from which the ``k`` inputs are picked."""
-    eval_test_views: int = 16
+    eval_test_views: int = setting(16, lo=1, hi=100_000)
     """Evenly spaced, noise-free test views of each evaluation scene."""
-    ks: tuple = (1, 3, 5, 9)
+    ks: tuple = setting((1, 3, 5, 9), lo=1, hi=100_000)
     """Numbers of input views compared."""
-    draws: int = 3
+    draws: int = setting(3, lo=1, hi=10 ** 6)
     """Input-view draws per (scene, k): the spread of every figure."""
-    encoders: tuple = ("frozen", "trained")
+    encoders: tuple = setting(("frozen", "trained"), choices=("frozen", "trained"))
     """pixelNeRF variants."""
     model: PixelNeRFConfig = field(default_factory=PixelNeRFConfig)
     """pixelNeRF architecture (``encoder`` is set per variant)."""
-    k_range: tuple = (1, 9)
+    k_range: tuple = setting((1, 9), lo=1, hi=100_000)
     """Input views per pixelNeRF training step, drawn from this inclusive range."""
-    pixel_iters: int | None = None
+    pixel_iters: int | None = setting(None, lo=1, hi=10 ** 9)
     """pixelNeRF steps per variant (None: the recipe's)."""
-    pixel_budget: float | None = None
+    pixel_budget: float | None = setting(None, lo=0, above=True, hi=10 ** 7)
     """pixelNeRF seconds per variant (None: the recipe's)."""
-    nerf_iters: int = 1000
+    nerf_iters: int = setting(1000, lo=1, hi=10 ** 9)
     """Steps of each NeRF baseline."""
-    nerf_batch_rays: int = 256
+    nerf_batch_rays: int = setting(256, lo=1, hi=1 << 22)
     """Rays per NeRF step (1 to 9 views hold 100 to 900 rays)."""
-    nerf_time_budget: float = 60.0
+    nerf_time_budget: float = setting(60.0, lo=0, above=True, hi=10 ** 7)
     """Seconds of each NeRF baseline at most."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 31)
     """Seed of the outlines, the rigs and the trainings."""
-    quick: bool = False
+    quick: bool = setting(False)
     """A smoke run: its report judges nothing."""
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig
+from ..settings import setting
 from ..train.recipes import get_recipe
 from ..viz.charts import series_figure
 from .claims import judged
@@ -37,21 +38,21 @@ METHODS = {
 class Config:
     """The seed study."""
 
-    scene: str = "bunny"
+    scene: str = setting("bunny")
     """2D scene."""
-    views: int = 5
+    views: int = setting(5, lo=1, hi=100_000)
     """Evenly spaced training views (sparse)."""
-    seeds: int = 20
+    seeds: int = setting(20, lo=1, hi=10 ** 6)
     """Runs per method."""
-    steps: int = 150
+    steps: int = setting(150, lo=1, hi=10 ** 9)
     """Training steps of every run."""
-    samples: int = 48
+    samples: int = setting(48, lo=1, hi=4096)
     """Stratified samples per ray."""
-    methods: tuple = tuple(METHODS)
+    methods: tuple = setting(tuple(METHODS), choices=tuple(METHODS))
     """Which methods of ``METHODS`` to run."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 31)
     """Seed of the rig; run k of a method uses seed ``seed + k``."""
-    quick: bool = False
+    quick: bool = setting(False)
     """A smoke run: its report judges nothing."""
 
 

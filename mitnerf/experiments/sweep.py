@@ -1,7 +1,7 @@
 """Speed against accuracy: which model is enough for a scene, and what it costs.
 
-``mitnerf sweep --out DIR`` trains the grid ``scenes x families x SIZES x SAMPLES x backends x
-BUDGETS`` (``torch`` runs the sizes in ``TORCH_SIZES``) plus the torch ``REFERENCE``, and writes into
+``mitnerf sweep --out DIR`` trains the grid ``scenes x families x sizes x SAMPLES x backends x
+BUDGETS`` (the sizes: :data:`~mitnerf.train.recipes.SWEEP_SIZES`; ``torch`` runs those in ``TORCH_SIZES``) plus the torch ``REFERENCE``, and writes into
 ``DIR``: ``sweep.csv``, one line per run (``COLUMNS``; ``wall_time`` is the clock around ``fit``:
 set-up, compilation, training), appended as runs finish, so a rerun skips the rows already there;
 ``sweep.md``, per scene its Pareto front and its table, and whether some run reaches the reference's
@@ -21,7 +21,7 @@ import os
 import socket
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -36,16 +36,12 @@ from ..errors import ConfigError, EnvironmentProblem
 from ..scenes.objects3d import OBJECTS_3D
 from ..scenes.registry import SCENES_2D
 from ..train.fit import fit_and_evaluate
-from ..train.recipes import Recipe, recipe_for
+from ..train.recipes import SWEEP_SIZES as SIZES, Recipe, recipe_for
 from ..viz.charts import series_figure
+from ..settings import setting
 from .claims import judged
 from .report import is_reference, markdown_table, num, pareto_front, write_report
 
-SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
-         "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
-                            3: dict(resolution=65, initial_resolution=33, upsample_at=(200,))}, "recipe": {}},
-         "hashgrid": {"T12": dict(log2_hashmap_size=12), "recipe": {}}}
-"""Per family: size label -> overrides of its recipe (or ``{dim: overrides}``)."""
 SAMPLES = (32, 64, 128)
 """Coarse samples per ray (a fine pass gets half as many)."""
 BUDGETS = ("3s", "10s", "30s")
@@ -64,27 +60,28 @@ COLUMNS = ["id", "scene", "family", "size", "samples", "backend", "budget", "ref
 class Config:
     """What to sweep and where to run it."""
 
-    scenes: tuple = SCENES
+    scenes: tuple = setting(SCENES, flag="--scenes")
     """Scene names (2D and 3D)."""
-    budgets: tuple | None = None
-    """Budgets, ``"20s"`` (seconds) or ``"500it"`` (steps); None: ``BUDGETS``."""
-    reference: bool = True
+    budgets: tuple | None = setting(None, flag="--budgets", metavar="20s|500it", shown=" ".join(BUDGETS))
+    """Training budgets: seconds (20s) or steps (500it)."""
+    reference: bool = setting(True, flag="--reference")
     """Add the torch reference row (when its scene is swept)."""
-    workers: int = 1
+    workers: int = setting(1, lo=1, hi=256, flag="--workers")
     """Parallel runs (local processes)."""
-    threads: int = 2
+    threads: int = setting(2, lo=1, hi=256, flag="--threads")
     """CPU threads of each run."""
-    executor: str = "local"
+    executor: str = setting("local", choices=("local", "dask"), flag="--executor")
     """``local`` or ``dask``."""
-    scheduler: str | None = None
-    """The Dask scheduler's address."""
-    quick: bool = False
+    scheduler: str | None = setting(None, flag="--scheduler", metavar="ADDRESS", shown="none; --executor dask "
+                                    "needs one")
+    """The Dask scheduler's address, e.g. tcp://10.0.0.5:8786."""
+    quick: bool = setting(False, flag="--quick")
     """Tiny rigs and models, a few steps: a smoke test."""
-    retry_failed: bool = False
+    retry_failed: bool = setting(False, flag="--retry-failed")
     """Rerun rows recorded as failed."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 31, flag="--seed")
     """Seed of the rigs and the runs."""
-    families: tuple = field(default_factory=lambda: tuple(SIZES))
+    families: tuple = setting(factory=lambda: tuple(SIZES), choices=tuple(SIZES), flag="--families")
     """Field families to sweep."""
 
 

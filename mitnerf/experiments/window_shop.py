@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ..data.cache import cached_dataset
 from ..data.rig import RigConfig, noise_preset
+from ..settings import setting
 from ..train.recipes import get_recipe
 from ..viz.charts import series_figure
 from ..viz.panels import image_grid, image_panel
@@ -34,31 +35,31 @@ ARCHITECTURES = {"ours": dict(width=64, depth=4, skip=2, dir_L=1), "paper": dict
 class Config:
     """The table's objects, budgets and architecture."""
 
-    objects: tuple = ("brick", "vase")
+    objects: tuple = setting(("brick", "vase"))
     """3D objects of ours (``brick``: thin parts and printed detail, like the report's Lego)."""
-    resolution: int = 100
+    resolution: int = setting(100, lo=1, hi=16384)
     """Photo width and height in pixels (the report's data: 100 x 100)."""
-    pool_views: int = 200
+    pool_views: int = setting(200, lo=1, hi=100_000)
     """Photos rendered per object; a run with N images uses the first N."""
-    test_views: int = 16
+    test_views: int = setting(16, lo=1, hi=100_000)
     """Noise-free test views on the 360 degree orbit."""
-    combinations: tuple = tuple(COMBINATIONS)
+    combinations: tuple = setting(tuple(COMBINATIONS), choices=tuple(COMBINATIONS))
     """Which of the report's combinations to run."""
-    architecture: str = "ours"
+    architecture: str = setting("ours", choices=tuple(ARCHITECTURES))
     """``ours`` or ``paper`` (``ARCHITECTURES``)."""
-    iters: int = 2000
+    iters: int = setting(2000, lo=1, hi=10 ** 9)
     """Steps per row at most (the report's)."""
-    batch_rays: int = 1024
+    batch_rays: int = setting(1024, lo=1, hi=1 << 22)
     """Rays per step."""
-    time_budget: float = 120.0
+    time_budget: float = setting(120.0, lo=0, above=True, hi=10 ** 7)
     """Seconds of training per row (the same for every row)."""
-    additions: bool = True
+    additions: bool = setting(True)
     """Also run our additions table."""
-    addition_views: tuple = (5, 200)
+    addition_views: tuple = setting((5, 200), lo=1, hi=100_000)
     """Photo counts of the grid and hash-grid rows (the fine pass runs at 5 and 25)."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 31)
     """Seed of the photos' placement and of every training."""
-    quick: bool = False
+    quick: bool = setting(False)
     """A smoke run: its report judges nothing."""
 
 

@@ -8,14 +8,13 @@ capabilities are class or instance attributes of :class:`Field` with stated defa
 from __future__ import annotations
 
 import abc
-import dataclasses
 from dataclasses import dataclass
 
 import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
 
-from ..errors import ConfigError, check_number
+from ..settings import check, setting
 
 _DENSITY = {
     "relu": lambda raw: dr.maximum(raw, 0.0),                                         # NeRF
@@ -27,15 +26,25 @@ DENSITY_ACTIVATIONS = tuple(_DENSITY)
 
 @dataclass
 class FieldConfig:
-    """The settings every field has (checked by :func:`check_config`; a family's config adds its own), and the
+    """The settings every field has (each checked by its declaration, :mod:`mitnerf.settings`; a family's config
+    adds its own), and the
     end of a coarse-to-fine schedule (none by default)."""
 
-    dim: int = 2
+    dim: int = setting(2, choices=(2, 3))
     """2 or 3: the data's dimension."""
-    density_activation: str = "softplus"
+    density_activation: str = setting("softplus", choices=DENSITY_ACTIVATIONS,
+                                      flag="--density-activation")
     """Raw output -> density: ``softplus`` (mip-NeRF), ``relu`` (NeRF) or ``trunc_exp`` (instant-ngp)."""
-    bound: float = 1.5
+    bound: float = setting(1.5, lo=0, above=True, hi=1e6)
     """Half-extent of the region the field covers, ``[-bound, bound]^D`` in world units (set from the data)."""
+
+    def __post_init__(self):
+        check(self)
+        self.settle()
+
+    def settle(self) -> None:
+        """Derive the settings left to their defaults from others, and check the rules that tie settings
+        together (each setting alone is checked by its declaration)."""
 
     def final(self):            # this config at the end of its coarse-to-fine schedule (what its size is judged by)
         return self
@@ -82,38 +91,6 @@ class Field(abc.ABC):
     def regularizer(self, params: dict, seed: UInt32) -> Float | None:
         """A loss term on the storage (e.g. total variation), or None."""
         return None
-
-
-def check_types(cfg) -> None:
-    """Refuse a setting of the wrong type (a string where a number goes, a number where a
-    flag goes), read from the config's annotations: a checkpoint or ``--set`` could carry one."""
-    for f in dataclasses.fields(cfg):
-        v, kind = getattr(cfg, f.name), str(f.type)
-        if v is None and "None" in kind:
-            continue
-        if kind == "bool" and not isinstance(v, bool):
-            raise ConfigError(f"{f.name} must be true or false, got {v!r}")
-        if kind.startswith(("int", "float")):
-            check_number(f.name, v, integer=kind.startswith("int"))
-        if kind == "tuple" and not (isinstance(v, (tuple, list)) and all(
-                isinstance(e, (int, float)) and not isinstance(e, bool) for e in v)):
-            raise ConfigError(f"{f.name} must be a list of numbers, got {v!r}")
-        if kind == "str" and not isinstance(v, str):
-            raise ConfigError(f"{f.name} must be a string, got {v!r}")
-
-
-def check_config(cfg, **ranges) -> None:
-    """Validate the settings every field config has (``dim``, ``density_activation``,
-    ``bound``), the types of all, and the integer settings in ``ranges`` (``name=(lo, hi)``)."""
-    check_types(cfg)
-    if cfg.dim not in (2, 3):
-        raise ConfigError(f"dim must be 2 or 3, got {cfg.dim!r}")
-    if cfg.density_activation not in DENSITY_ACTIVATIONS:
-        raise ConfigError(f"density_activation must be one of {', '.join(DENSITY_ACTIVATIONS)}, "
-                          f"got {cfg.density_activation!r}")
-    check_number("bound", cfg.bound, 0, 1e6, strict_lo=True)
-    for name, (lo, hi) in ranges.items():
-        check_number(name, getattr(cfg, name), lo, hi, integer=True, flag=f"--{name.replace('_', '-')}")
 
 
 def density_activation(raw, kind: str):

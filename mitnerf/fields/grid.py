@@ -19,9 +19,10 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import ArrayXf, Float, UInt32
 
-from ..errors import ConfigError, check_number
+from ..errors import ConfigError
 from ..rng import hash_u32
-from .base import Field, FieldConfig, cell_corners, check_config, density_activation, sigmoid
+from ..settings import setting
+from .base import Field, FieldConfig, cell_corners, density_activation, sigmoid
 
 
 MAX_SH_DEGREE = {2: 8, 3: 2}
@@ -34,21 +35,17 @@ class GridSettings(FieldConfig):
     """What the dense grid's config and the configs built like it (:mod:`.hashlinear`) share: settings, the count of
     view harmonics, and the checks of the density scale, the total-variation weights and the harmonics' degree."""
 
-    sh_degree: int = 1
-    """Degree of the view-direction expansion when ``view_dependent``: up to 8 in 2D, 2 in 3D."""
-    density_init: float = -1.0
+    sh_degree: int = setting(1, lo=1, hi=8, flag="--sh-degree")
+    """Degree of the view-direction harmonics when the colour is view-dependent: up to 8 in 2D, 2 in 3D."""
+    density_init: float = setting(-1.0, lo=-1e3, hi=1e3)
     """Initial raw density everywhere (softplus(-1) = 0.31: slightly transparent)."""
-    density_scale: float = 10.0
+    density_scale: float = setting(10.0, lo=0, hi=1e9)
     """Raw values are multiplied by this before the activation: a larger effective learning
     rate for density, which has to go from transparent to opaque."""
 
-    def check_settings(self) -> None:
-        """Refuse a density scale, a total-variation weight or a harmonics degree out of range (after
-        :func:`~.base.check_config` has checked ``dim``)."""
-        for name in ("density_scale", "tv_weight", "tv_color_weight"):
-            check_number(name, getattr(self, name), 0, 1e9)
+    def settle(self) -> None:
+        """A harmonics degree within what the dimension carries."""
         top = MAX_SH_DEGREE[self.dim]
-        check_number("sh_degree", self.sh_degree, 1, None, integer=True, flag="--sh-degree")
         if self.sh_degree > top:
             raise ConfigError(f"--sh-degree {self.sh_degree}: a {self.dim}D field carries harmonics up to degree "
                               f"{top}; choose 1 to {top}")
@@ -64,28 +61,31 @@ class GridSettings(FieldConfig):
 class GridConfig(GridSettings):
     """A dense grid of density and colour."""
 
-    resolution: int = 256
-    """Vertices per axis at the end of training."""
-    initial_resolution: int | None = None
+    resolution: int = setting(256, lo=2, hi=8193, flag="--grid-resolution")
+    """Grid vertices per axis at the end of training (up to 8193 in 2D, 513 in 3D)."""
+    initial_resolution: int | None = setting(None, lo=2, hi=8193)
     """Vertices per axis at the start (coarse to fine); None: ``resolution``."""
-    upsample_at: tuple = ()
+    upsample_at: tuple = setting((), lo=1, hi=1e9)
     """Training steps at which the resolution doubles (capped at ``resolution``)."""
-    view_dependent: bool = False
+    view_dependent: bool = setting(False, flag="--view-dependence")
     """View-dependent colour: harmonics of the view direction up to ``sh_degree`` per vertex."""
-    tv_weight: float = 1e-3
+    tv_weight: float = setting(1e-3, lo=0, hi=1e9)
     """Total-variation weight on the density grid (0: none)."""
-    tv_color_weight: float = 0.0
+    tv_color_weight: float = setting(0.0, lo=0, hi=1e9)
     """Total-variation weight on the colour grid."""
-    tv_samples: int = 65536
+    tv_samples: int = setting(65536, lo=0, hi=1 << 26)
     """Vertices per step for the total variation, consecutive from a random start (0: the whole grid)."""
 
-    def __post_init__(self):
+    def settle(self) -> None:
+        """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side."""
         if self.initial_resolution is None:
             self.initial_resolution = self.resolution
-        self.upsample_at = tuple(self.upsample_at)
         top = 8193 if self.dim == 2 else 513
-        check_config(self, resolution=(2, top), initial_resolution=(2, top), tv_samples=(0, 1 << 26))
-        self.check_settings()
+        for name in ("resolution", "initial_resolution"):
+            if getattr(self, name) > top:
+                raise ConfigError(f"{'--grid-resolution' if name == 'resolution' else '--set ' + name} "
+                                  f"{getattr(self, name)}: a {self.dim}D grid has at most {top} vertices a side")
+        super().settle()
 
     def final(self) -> "GridConfig":
         return dataclasses.replace(self, initial_resolution=self.resolution)

@@ -22,7 +22,8 @@ import numpy as np
 from drjit.auto.ad import Float
 
 from ..errors import CheckpointError, ConfigError
-from .base import Field, FieldConfig, check_config, density_activation, sigmoid
+from ..settings import setting
+from .base import DENSITY_ACTIVATIONS, Field, FieldConfig, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size
 from .hashenc import hash_encode, hash_layout
 from .layers import LinearLayers, torch_default_init
@@ -32,39 +33,38 @@ from .layers import LinearLayers, torch_default_init
 class HashGridConfig(FieldConfig):
     """A hash-grid encoding and two tiny networks."""
 
-    n_levels: int = 12
+    n_levels: int = setting(12, lo=1, hi=32)
     """Resolution levels."""
-    features_per_level: int = 2
+    features_per_level: int = setting(2, lo=1, hi=8)
     """Features stored per vertex and level."""
-    log2_hashmap_size: int = 15
+    log2_hashmap_size: int = setting(15, lo=4, hi=24)
     """Entries per level (as a power of two); coarser levels that fit are stored densely."""
-    base_resolution: int = 8
+    base_resolution: int = setting(8, lo=2, hi=1 << 16)
     """Vertices per axis of the coarsest level."""
-    max_resolution: int = 1024
+    max_resolution: int = setting(1024, lo=2, hi=1 << 20)
     """Vertices per axis of the finest level (sets the per-level scale)."""
-    hidden: int = 32
+    hidden: int = setting(32, lo=1, hi=512)
     """Width of the hidden layer of each network."""
-    geo_features: int = 15
+    geo_features: int = setting(15, lo=1, hi=128)
     """Features passed from the density network to the colour network."""
-    view_dependent: bool = False
+    view_dependent: bool = setting(False, flag="--view-dependence")
     """Feed the encoded view direction to the colour network."""
-    dir_L: int = 4
+    dir_L: int = setting(4, lo=0, hi=12, flag="--dir-L")
     """View-direction encoding frequencies."""
-    density_activation: str = "trunc_exp"
+    density_activation: str = setting("trunc_exp", choices=DENSITY_ACTIVATIONS,
+                                      flag="--density-activation")
     """As every field's, instant-ngp's by default."""
-    density_bias: float = -1.0
+    density_bias: float = setting(-1.0, lo=-1e3, hi=1e3)
     """Added to the density output's initial bias."""
-    init_scale: float = 1e-4
+    init_scale: float = setting(1e-4, lo=0, hi=1)
     """Hash table entries start uniform in [-init_scale, init_scale]."""
-    mode: str = "tensor"
+    mode: str = setting("tensor", choices=("coopvec", "tensor"))
     """Network evaluation: ``coopvec`` (traceable: fused into the march) or ``tensor``."""
 
-    def __post_init__(self):
-        check_config(self, n_levels=(1, 32), features_per_level=(1, 8), log2_hashmap_size=(4, 24),
-                     base_resolution=(2, 1 << 16), max_resolution=(self.base_resolution, 1 << 20), hidden=(1, 512),
-                     geo_features=(1, 128), dir_L=(0, 12))
-        if self.mode not in ("coopvec", "tensor"):
-            raise ConfigError(f"mode must be coopvec or tensor, got {self.mode!r}")
+    def settle(self) -> None:
+        if self.max_resolution < self.base_resolution:
+            raise ConfigError(f"--set max_resolution={self.max_resolution} is below base_resolution "
+                              f"({self.base_resolution}); the finest level is the largest")
 
     @property
     def per_level_scale(self) -> float:

@@ -29,8 +29,9 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
 
-from ..errors import CheckpointError, ConfigError, check_number
-from .base import check_config, density_activation
+from ..errors import CheckpointError, ConfigError
+from ..settings import setting
+from .base import density_activation
 from .grid import GridSettings, LatticeField, lattice_corners, tv_vertices
 from .hashenc import lattice_index
 
@@ -39,39 +40,37 @@ from .hashenc import lattice_index
 class HashLinearConfig(GridSettings):
     """Levels and tables, with the dense grid's activations and regularisers."""
 
-    resolutions: tuple = (65, 129, 257)
-    """Vertices per axis of each level, coarse to fine."""
-    dense_levels: int = 2
+    resolutions: tuple = setting((65, 129, 257), lo=2, hi=8193)
+    """Vertices per axis of each level, coarse to fine (up to 8193 in 2D, 513 in 3D)."""
+    dense_levels: int = setting(2, lo=0, hi=32)
     """The first levels are stored densely; finer ones are hashed."""
-    log2_hashmap_size: int = 13
+    log2_hashmap_size: int = setting(13, lo=4, hi=24)
     """Entries of each hashed level, as a power of two (a level with fewer vertices is stored densely)."""
-    view_dependent: bool = True
+    view_dependent: bool = setting(True, flag="--view-dependence")
     """View-dependent colour: harmonics of the view direction up to ``sh_degree`` (as the dense grid)."""
-    view_levels: int = 1
+    view_levels: int = setting(1, lo=1, hi=32)
     """The first levels carry the view harmonics; finer ones only the base colour."""
-    initial_levels: int = 2
+    initial_levels: int = setting(2, lo=1, hi=32)
     """Levels in use at the start (coarse to fine)."""
-    add_level_at: tuple = (150,)
+    add_level_at: tuple = setting((150,), lo=1, hi=1e9)
     """Training steps at which the next level joins."""
-    tv_weight: float = 1e-4
+    tv_weight: float = setting(1e-4, lo=0, hi=1e9)
     """Total-variation weight on the summed raw density (0: none)."""
-    tv_color_weight: float = 1e-2
+    tv_color_weight: float = setting(1e-2, lo=0, hi=1e9)
     """Total-variation weight on the summed colour coefficients."""
-    tv_samples: int = 8192
+    tv_samples: int = setting(8192, lo=0, hi=1 << 26)
     """Vertices of the finest level in use per step for the total variation (0: all)."""
 
-    def __post_init__(self):
-        self.resolutions, self.add_level_at = tuple(self.resolutions), tuple(self.add_level_at)
-        check_config(self, dense_levels=(0, 32), log2_hashmap_size=(4, 24), view_levels=(1, 32),
-                     initial_levels=(1, 32), tv_samples=(0, 1 << 26))
+    def settle(self) -> None:
+        """1 to 32 levels of whole, increasing resolutions (at most 513 in 3D)."""
         top = 8193 if self.dim == 2 else 513
-        if not self.resolutions or len(self.resolutions) > 32:
-            raise ConfigError("resolutions needs 1 to 32 levels, e.g. --set resolutions=[65,129,257]")
-        for r in self.resolutions:
-            check_number("resolutions", r, 2, top, integer=True)
+        if not 1 <= len(self.resolutions) <= 32 or any(r != int(r) or r > top for r in self.resolutions):
+            raise ConfigError(f"resolutions needs 1 to 32 levels of whole numbers up to {top}, e.g. --set "
+                              "resolutions=[65,129,257]")
+        self.resolutions = tuple(int(r) for r in self.resolutions)
         if list(self.resolutions) != sorted(set(self.resolutions)):
             raise ConfigError(f"resolutions must increase from level to level, got {list(self.resolutions)}")
-        self.check_settings()
+        super().settle()
 
     def levels_at(self, step: int) -> int:
         """Levels in use at training step ``step``."""

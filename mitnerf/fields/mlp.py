@@ -21,7 +21,8 @@ import numpy as np
 from drjit.auto.ad import Float
 
 from ..errors import ConfigError, EnvironmentProblem
-from .base import Field, FieldConfig, check_config, check_types, density_activation, sigmoid
+from ..settings import setting
+from .base import Field, FieldConfig, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size, positional_encoding
 from .layers import LinearLayers, torch_default_init
 from .native import library, native_mlp
@@ -33,31 +34,30 @@ MODES = ("native", "coopvec", "tensor")
 class NeRFConfig(FieldConfig):
     """Architecture of the vanilla field."""
 
-    pos_L: int = 8
+    pos_L: int = setting(8, lo=0, hi=24, flag="--pos-L")
     """Frequencies of the positional encoding (0: raw coordinates only)."""
-    dir_L: int = 4
+    dir_L: int = setting(4, lo=0, hi=12, flag="--dir-L")
     """Frequencies of the view-direction encoding (2D: angle harmonics 1, 2, .., 2^(L-1))."""
-    depth: int = 4
-    """Trunk layers (NeRF: 8; NeRF2D: 6)."""
-    width: int = 64
-    """Units per trunk layer (the colour branch has width / 2)."""
-    skip: int | None = None
+    depth: int = setting(4, lo=1, hi=32, flag="--mlp-depth")
+    """MLP trunk layers (NeRF: 8; NeRF2D: 6)."""
+    width: int = setting(64, lo=2, hi=1024, flag="--mlp-width")
+    """MLP units per layer (the colour branch has width / 2)."""
+    skip: int | None = setting(None, lo=-1, hi=31)
     """Trunk layer that also receives the encoded position (NeRF: 4 of 8); None: depth // 2
     when depth >= 4, else no skip; -1: no skip."""
-    view_dependent: bool = True
+    view_dependent: bool = setting(True, flag="--view-dependence")
     """Feed the encoded view direction to the colour branch."""
-    density_bias: float = -1.0
+    density_bias: float = setting(-1.0, lo=-1e3, hi=1e3)
     """Added to the density head's initial bias: a slightly transparent start."""
-    mode: str = "tensor"
+    mode: str = setting("tensor", choices=MODES)
     """``native``, ``coopvec`` or ``tensor`` (see the module docstring)."""
 
-    def __post_init__(self):
-        check_types(self)
+    def settle(self) -> None:
+        """The skip layer's default, within the trunk; view dependence needs direction frequencies."""
         if self.skip is None:
             self.skip = self.depth // 2 if self.depth >= 4 else -1
-        check_config(self, pos_L=(0, 24), dir_L=(0, 12), depth=(1, 32), width=(2, 1024), skip=(-1, self.depth - 1))
-        if self.mode not in MODES:
-            raise ConfigError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.skip > self.depth - 1:
+            raise ConfigError(f"--set skip={self.skip}: the trunk has layers 0 to {self.depth - 1} (-1: no skip)")
         if self.view_dependent and self.dir_L < 1:
             raise ConfigError("a view-dependent field needs dir_L >= 1 (or set view_dependent=False)")
 

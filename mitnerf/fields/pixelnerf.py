@@ -29,7 +29,8 @@ import numpy as np
 from drjit.auto.ad import Bool, Float, Int32, TensorXf, UInt32
 
 from ..errors import MitnerfError
-from .base import DENSITY_ACTIVATIONS, Field, FieldConfig, density_activation, sigmoid
+from ..settings import setting
+from .base import Field, FieldConfig, density_activation, sigmoid
 from .encoding import angle_harmonics, positional_encoding
 from .layers import concat_rows, dense, row, stack_rows, torch_default_init
 
@@ -41,48 +42,43 @@ POOLS = ("mean", "mean_var")
 class PixelNeRFConfig(FieldConfig):
     """Architecture of the 2D pixelNeRF field."""
 
-    encoder: str = "trained"
+    encoder: str = setting("trained", choices=ENCODERS)
     """``frozen`` (random weights, never updated; NeRF2D) or ``trained`` (learnt end to end)."""
-    channels: int = 16
+    channels: int = setting(16, lo=1, hi=1024)
     """Filters per convolution layer."""
-    dilations: tuple = (1, 2, 4, 8)
+    dilations: tuple = setting((1, 2, 4, 8), lo=1, hi=1024)
     """Dilation of each convolution layer (its length is the number of layers)."""
-    kernel: int = 3
+    kernel: int = setting(3, lo=1, hi=63)
     """Convolution kernel size (odd)."""
-    include_rgb: bool = True
+    include_rgb: bool = setting(True)
     """Put the raw pixel colour in front of the CNN features."""
-    encoder_seed: int = 1234
+    encoder_seed: int = setting(1234, lo=0, hi=2 ** 32 - 1)
     """Seed of the frozen encoder's random weights."""
-    pos_L: int = 6
+    pos_L: int = setting(6, lo=0, hi=24, flag="--pos-L")
     """Frequencies of the positional encoding of the point (in each camera's axes)."""
-    dir_L: int = 2
+    dir_L: int = setting(2, lo=0, hi=12, flag="--dir-L")
     """Angle harmonics of the query direction (in each camera's axes)."""
-    width: int = 64
-    """Units per MLP layer."""
-    view_layers: int = 2
+    width: int = setting(64, lo=2, hi=1024, flag="--mlp-width")
+    """MLP units per layer."""
+    view_layers: int = setting(2, lo=1, hi=32)
     """ReLU layers applied per input view, before the average over views."""
-    head_layers: int = 2
+    head_layers: int = setting(2, lo=0, hi=32)
     """ReLU layers after the average, before the linear output layer."""
-    pool: str = "mean_var"
+    pool: str = setting("mean_var", choices=POOLS)
     """How per-view codes are combined: ``mean`` (pixelNeRF) or ``mean_var`` (mean and variance
     over views, as IBRNet: agreement between views becomes an explicit input of the head)."""
-    density_bias: float = -1.0
+    density_bias: float = setting(-1.0, lo=-1e3, hi=1e3)
     """Added to the density output's initial bias: a slightly transparent start."""
-    bound: float = 1.8
+    bound: float = setting(1.8, lo=0, above=True, hi=1e6)
     """As every field's; positions are divided by it before encoding."""
 
-    def __post_init__(self):
+    def settle(self) -> None:
+        """2D only, an odd kernel, whole dilations."""
         self.dilations = tuple(int(d) for d in self.dilations)
         if self.dim != 2:
             raise MitnerfError("pixelNeRF is implemented for 2D scenes (1D views) only")
-        for name, choices in (("encoder", ENCODERS), ("density_activation", DENSITY_ACTIVATIONS), ("pool", POOLS)):
-            if getattr(self, name) not in choices:
-                raise MitnerfError(f"{name} must be one of {choices}, got {getattr(self, name)!r}")
         if self.kernel % 2 != 1:
             raise MitnerfError(f"the convolution kernel must be odd (same-size output), got {self.kernel}")
-        if self.view_layers < 1 or self.head_layers < 0:
-            raise MitnerfError(f"pixelNeRF needs view_layers >= 1 and head_layers >= 0, "
-                               f"got view_layers={self.view_layers}, head_layers={self.head_layers}")
 
     @property
     def feature_size(self) -> int:

@@ -18,7 +18,7 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
 
-from ..errors import check_number
+from ..settings import setting
 from ..rng import uniform
 from .samplers import Explicit, per_sample
 
@@ -27,28 +27,20 @@ from .samplers import Explicit, per_sample
 class OccupancyConfig:
     """Empty-space skipping."""
 
-    enabled: bool = False
-    """Use the occupancy grid and sampler."""
-    resolution: int = 128
+    enabled: bool = setting(False, flag="--occupancy")
+    """Skip empty space with an occupancy grid of the density."""
+    resolution: int = setting(128, lo=2, hi=1024)
     """Cells per axis of the grid."""
-    update_every: int = 16
+    update_every: int = setting(16, lo=1, hi=10 ** 9)
     """Training steps between grid updates."""
-    warmup: int = 64
+    warmup: int = setting(64, lo=0, hi=10 ** 9)
     """Steps before the first update (the field has learned nothing yet)."""
-    decay: float = 0.95
+    decay: float = setting(0.95, lo=0.0, hi=1.0)
     """Decay of the running density per update."""
-    threshold: float = 0.01
+    threshold: float = setting(0.01, lo=0.0, hi=1e9)
     """Density below which a cell is empty (or the mean, if that is smaller)."""
-    march_bins: int = 512
+    march_bins: int = setting(512, lo=1, hi=1 << 16)
     """Bins per ray in which occupancy is looked up (the finest sample spacing)."""
-
-    def validate(self) -> None:
-        check_number("occupancy resolution", self.resolution, 2, 1024, integer=True)
-        check_number("occupancy update_every", self.update_every, 1, 10 ** 9, integer=True)
-        check_number("occupancy warmup", self.warmup, 0, 10 ** 9, integer=True)
-        check_number("occupancy decay", self.decay, 0.0, 1.0)
-        check_number("occupancy threshold", self.threshold, 0.0, 1e9)
-        check_number("occupancy march_bins", self.march_bins, 1, 1 << 16, integer=True)
 
 
 def cell_index(x: list, bound: float, res: int):

@@ -11,7 +11,8 @@ from dataclasses import dataclass, field, replace
 import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
-from ..errors import ConfigError, check_number
+from ..errors import ConfigError
+from ..settings import check, parse_color, setting
 from .integral import W_MIN, RenderOutput
 from .occupancy import OccupancyConfig, OccupiedSampler
 from .samplers import Stratified, importance_sample
@@ -22,24 +23,25 @@ from .volume import METHODS, volume_render
 class RenderConfig:
     """How rays are sampled and integrated."""
 
-    n_coarse: int = 64
-    """Stratified samples per ray."""
-    n_fine: int = 0
+    n_coarse: int = setting(64, lo=1, hi=4096, flag="--samples", unit="per ray")
+    """Samples per ray (stratified, or placed in occupied space by the occupancy grid)."""
+    n_fine: int = setting(0, lo=0, hi=4096, flag="--fine", unit="per ray")
     """Importance samples per ray drawn from the coarse weights (0: no fine pass)."""
-    separate_fine: bool = True
+    separate_fine: bool = setting(True)
     """Give the fine pass its own field (NeRF); otherwise the coarse field is reused."""
-    background: tuple = (0.0, 0.0, 0.0)
+    background: tuple = setting((0.0, 0.0, 0.0), lo=0, hi=1, flag="--background", parse=parse_color,
+                                metavar="black|white|R,G,B")
     """Colour behind the object (display space)."""
-    method: str = "replay"
-    """``replay`` (custom operation) or ``autodiff`` (plain AD, the check)."""
+    method: str = setting("replay", choices=METHODS, flag="--method")
+    """Volume integral: ``replay`` (the custom operation) or ``autodiff`` (plain AD, the check)."""
     occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
     """Empty-space skipping: an occupancy grid places the coarse samples (``n_coarse``)."""
-    pixel_jitter: bool = False
+    pixel_jitter: bool = setting(False)
     """Train on rays spread over each pixel's footprint (its ground truth: the footprint's average)."""
-    eval_spp: int = 1
+    eval_spp: int = setting(1, lo=1, hi=64)
     """Rays averaged per pixel when evaluating (stratified over the footprint: 2D along the
     view, 3D on a square grid); 1: the pixel centre."""
-    min_color_weight: float = W_MIN
+    min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
 
@@ -49,17 +51,9 @@ class RenderConfig:
             self.occupancy = OccupancyConfig(**self.occupancy)
 
     def validate(self) -> None:
-        check_number("n_coarse", self.n_coarse, 1, 4096, integer=True, flag="--samples")
-        check_number("n_fine", self.n_fine, 0, 4096, integer=True, flag="--fine")
-        check_number("eval_spp", self.eval_spp, 1, 64, integer=True, flag="--eval-spp")
-        check_number("min_color_weight", self.min_color_weight, 0.0, 0.01)
-        if self.method not in METHODS:
-            raise ConfigError(f"--method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        check(self)
         if len(self.background) != 3:
-            raise ConfigError(f"the background needs 3 values (r, g, b), got {self.background!r}")
-        for v in self.background:
-            check_number("background", v, 0.0, 1.0, flag="--background")
-        self.occupancy.validate()
+            raise ConfigError(f"--background needs 3 values (r, g, b), got {self.background!r}")
 
 
 def split_params(params: dict, prefix: str) -> dict:

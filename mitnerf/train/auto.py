@@ -19,21 +19,7 @@ from dataclasses import dataclass, field
 from ..data.dataset import Dataset
 from ..fields import FIELDS, field_config
 from .fit import fit
-from .recipes import Recipe, recipe_for
-
-LADDER = {
-    2: [("grid", dict(resolution=r, initial_resolution=min(r, 129), upsample_at=(150, 400)))
-        for r in (33, 65, 129, 257, 513)]
-    + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
-    + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (12, 14)]
-    + [("hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13))],
-    3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
-    + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
-    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)]
-    + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))],
-}
-"""Candidate (family, settings on top of the family's recipe) per dimension, probed smallest first."""
-
+from .recipes import LADDER, Recipe, recipe_for
 
 @dataclass
 class AutoConfig:

@@ -6,9 +6,10 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..errors import check_number as check
+from ..errors import ConfigError
 from ..fields import field_config
 from ..render.pipeline import RenderConfig
+from ..settings import check, setting
 
 
 @dataclass
@@ -42,69 +43,69 @@ class ModelConfig:
 class TrainConfig:
     """How long and how to optimise."""
 
-    iters: int = 2000
+    iters: int = setting(2000, lo=1, hi=10 ** 9, flag="--iters", unit="steps")
     """Optimisation steps (an upper bound when ``time_budget`` is set)."""
-    time_budget: float | None = None
+    time_budget: float | None = setting(None, lo=0, above=True, hi=10 ** 7, flag="--time-budget", unit="seconds")
     """Stop after this many seconds of training (the schedule then follows the clock)."""
-    batch_rays: int = 1024
+    batch_rays: int = setting(1024, lo=1, hi=1 << 22, flag="--batch", unit="rays")
     """Rays per step, drawn at random from all training pixels."""
-    lr: float = 5e-3
+    lr: float = setting(5e-3, lo=0, above=True, hi=10, flag="--lr")
     """Peak learning rate (Adam)."""
-    lr_final: float = 5e-4
+    lr_final: float = setting(5e-4, lo=0, above=True, hi=10, flag="--lr-final")
     """Learning rate at the end (exponential decay from ``lr``)."""
-    warmup: int = 50
+    warmup: int = setting(50, lo=0, hi=10 ** 9, unit="steps")
     """Steps of linear warm-up from ``lr / 10`` (protects ReLU fields from dying early)."""
-    beta1: float = 0.9
+    beta1: float = setting(0.9, lo=0, hi=0.999999)
     """Adam's first-moment decay."""
-    beta2: float = 0.99
+    beta2: float = setting(0.99, lo=0, hi=0.999999)
     """Adam's second-moment decay."""
-    eps: float = 1e-10
+    eps: float = setting(1e-10, lo=0, hi=1)
     """Adam's epsilon."""
-    coarse_weight: float = 1.0
+    coarse_weight: float = setting(1.0, lo=0, hi=1e6)
     """Weight of the coarse pass's photometric loss when there is a fine pass."""
-    depth_weight: float = 0.0
+    depth_weight: float = setting(0.0, lo=0, hi=1e6, flag="--depth-weight")
     """Weight of DS-NeRF's depth loss on the dataset's depth (``mitnerf.train.losses``); 0: off."""
-    depth_sigma: float = 0.05
+    depth_sigma: float = setting(0.05, lo=0, above=True, hi=1e6, flag="--depth-sigma", unit="world units")
     """Standard deviation of the depth-supervision Gaussian (world units)."""
-    free_space_weight: float = 0.0
+    free_space_weight: float = setting(0.0, lo=0, hi=1e6, flag="--free-space-weight")
     """Weight of the free-space loss: no density before the depth the dataset measured, nor anywhere on a ray
     whose pixel and neighbours miss (``mitnerf.train.losses``); 0: off, and nothing where the data has no
     depth or alpha. On in the dense-grid recipes only: ``benchmarks/fit_table.py`` measures it on every family,
     and it empties the MLP's density and costs the hash grid PSNR there."""
-    free_space_margin: float = 0.01
+    free_space_margin: float = setting(0.01, lo=0, hi=1e6, unit="world units")
     """Distance before the measured depth within which the free-space loss leaves density alone (world units)."""
-    solid_weight: float = 0.0
+    solid_weight: float = setting(0.0, lo=0, hi=1e6, flag="--solid-weight")
     """Weight of the solid-behind-the-surface loss: matter for ``solid_thickness`` behind the dataset's depth
     (``mitnerf.train.losses``), so the density encloses a solid; 0: off, and nothing without depth."""
-    solid_thickness: float = 0.05
+    solid_thickness: float = setting(0.05, lo=0, above=True, hi=1e6, unit="world units")
     """How far behind the measured depth the solid loss draws its points at most (world units): each ray's
     reach ends where a training view's depth map shows empty space (:mod:`mitnerf.data.carve`)."""
-    solid_start: float = 0.005
+    solid_start: float = setting(0.005, lo=0, hi=1e6, unit="world units")
     """How far behind the measured depth the solid loss's nearest points lie (world units): less than a cell
     of the grids, so matter begins at the surface."""
-    distortion_weight: float = 0.0
+    distortion_weight: float = setting(0.0, lo=0, hi=1e6, flag="--distortion-weight")
     """Weight of mip-NeRF 360's distortion loss (floaters, fill-in); 0: off."""
-    opacity_weight: float = 0.0
+    opacity_weight: float = setting(0.0, lo=0, hi=1e6, flag="--opacity-weight")
     """Weight of the rays' opacity entropy (haze); 0: off."""
-    val_every: int = 250
+    val_every: int = setting(250, lo=0, hi=10 ** 9, flag="--val-every", unit="steps")
     """Validate every so many steps (0: only at the end); the best validation is kept."""
-    val_views: int = 4
+    val_views: int = setting(4, lo=1, hi=10 ** 6)
     """Validation views rendered each time."""
-    keep_best: bool = True
+    keep_best: bool = setting(True)
     """End with the weights of the best validation, not the last step (and say so), when it beats the last
     validation by ``keep_best_margin``."""
-    keep_best_margin: float = 0.3
+    keep_best_margin: float = setting(0.3, lo=0, hi=100, unit="dB")
     """dB of validation PSNR by which the best validation must beat the last for its weights to be kept. Late in a
     run, validations on a few views swing by tenths of a dB with the batches' noise: within that, the last
     weights (trained longest, at the smallest rate) win, so a long run does not end on a lucky earlier draw
     (``benchmarks/fit_table.py``'s ``longer`` runs)."""
-    seed: int = 0
+    seed: int = setting(0, lo=0, hi=2 ** 32 - 1, flag="--seed")
     """Seed of the initial weights, the ray batches and the sample jitter."""
-    threads: int = 2
+    threads: int = setting(2, lo=1, hi=1024, flag="--threads")
     """CPU threads (Dr.Jit and torch)."""
-    freeze: bool = True
+    freeze: bool = setting(True)
     """Record the Dr.Jit step once and replay it (``dr.freeze``); off only for debugging."""
-    progress: bool = True
+    progress: bool = setting(True, flag="--progress")
     """Show a progress bar."""
 
     def lr_at(self, progress: float, step: int) -> float:
@@ -123,28 +124,7 @@ class TrainConfig:
         return self.depth_weight > 0 or self.distortion_weight > 0 or self.free_space_weight > 0
 
     def validate(self) -> None:
-        check("iters", self.iters, 1, 10 ** 9, integer=True, flag="--iters")
-        if self.time_budget is not None:
-            check("time_budget", self.time_budget, 0, 10 ** 7, strict_lo=True, flag="--time-budget")
-        check("batch_rays", self.batch_rays, 1, 1 << 22, integer=True, flag="--batch")
-        check("lr", self.lr, 0, 10, strict_lo=True, flag="--lr")
-        check("lr_final", self.lr_final, 0, 10, strict_lo=True, flag="--lr-final")
-        check("warmup", self.warmup, 0, 10 ** 9, integer=True)
-        for name in ("beta1", "beta2"):
-            check(name, getattr(self, name), 0, 0.999999)
-        check("eps", self.eps, 0, 1)
-        check("coarse_weight", self.coarse_weight, 0, 1e6)
-        check("depth_weight", self.depth_weight, 0, 1e6, flag="--depth-weight")
-        check("depth_sigma", self.depth_sigma, 0, 1e6, strict_lo=True, flag="--depth-sigma")
-        check("distortion_weight", self.distortion_weight, 0, 1e6, flag="--distortion-weight")
-        check("free_space_weight", self.free_space_weight, 0, 1e6, flag="--free-space-weight")
-        check("free_space_margin", self.free_space_margin, 0, 1e6)
-        check("solid_weight", self.solid_weight, 0, 1e6, flag="--solid-weight")
-        check("solid_thickness", self.solid_thickness, 0, 1e6, strict_lo=True)
-        check("solid_start", self.solid_start, 0, self.solid_thickness)
-        check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
-        check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
-        check("val_views", self.val_views, 1, 10 ** 6, integer=True)
-        check("keep_best_margin", self.keep_best_margin, 0, 100)
-        check("seed", self.seed, 0, 2 ** 32 - 1, integer=True, flag="--seed")
-        check("threads", self.threads, 1, 1024, integer=True, flag="--threads")
+        check(self)
+        if self.solid_start > self.solid_thickness:
+            raise ConfigError(f"--set solid_start={self.solid_start:g} lies beyond solid_thickness "
+                              f"({self.solid_thickness:g}); the solid loss's nearest points come first")

@@ -11,6 +11,7 @@ from ..errors import ConfigError
 from ..fields import FIELDS
 from ..render.occupancy import OccupancyConfig
 from ..render.pipeline import RenderConfig
+from ..settings import field_named
 from .config import ModelConfig, TrainConfig
 
 
@@ -73,14 +74,31 @@ class Recipe:
             self.name = base.name + "+"
         return self
 
+    def declared(self, key: str):
+        """``(config class, its dataclass field)`` declaring ``key`` in this recipe: a training or rendering
+        setting, ``occupancy.<name>``, or a setting of its field family; None when it has no such setting."""
+        if key.startswith("occupancy."):
+            f = field_named(OccupancyConfig, key.split(".", 1)[1])
+            return (OccupancyConfig, f) if f else None
+        for cls in (TrainConfig, RenderConfig, FIELDS[self.model.field][0]):
+            f = field_named(cls, key)
+            if f is not None and key not in ("occupancy", "dim", "bound"):
+                return cls, f
+        return None
+
     def has(self, key: str) -> bool:
-        """Whether :meth:`override` and :meth:`get` know ``key`` as a training or field setting."""
-        return key in TrainConfig.__dataclass_fields__ or key in FIELDS[self.model.field][0].__dataclass_fields__
+        """Whether the recipe has the setting ``key`` (:meth:`declared`)."""
+        return self.declared(key) is not None
 
     def get(self, key: str):
-        """A training or field setting (the field's default when the recipe does not set it)."""
-        if key in TrainConfig.__dataclass_fields__:
+        """A setting's value (a field setting's default when the recipe does not set it)."""
+        cls = self.declared(key)[0] if self.has(key) else None
+        if cls is TrainConfig:
             return getattr(self.train, key)
+        if cls is RenderConfig:
+            return getattr(self.model.render, key)
+        if cls is OccupancyConfig:
+            return getattr(self.model.render.occupancy, key.split(".", 1)[1])
         return getattr(self.model.field_config(self.dim), key)
 
     def essence(self) -> dict:
@@ -179,6 +197,27 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "2D pixelNeRF trained across scenes (`mitnerf experiment pixelnerf`): 32 rays x 32 samples per step"),
 ]}
 DEFAULT = {2: "grid-2d", 3: "grid-3d"}
+
+# The sizes the searches try: each a family and settings on top of the family's recipe.
+LADDER = {
+    2: [("grid", dict(resolution=r, initial_resolution=min(r, 129), upsample_at=(150, 400)))
+        for r in (33, 65, 129, 257, 513)]
+    + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
+    + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (12, 14)]
+    + [("hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13))],
+    3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
+    + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
+    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)]
+    + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))],
+}
+"""``fit --auto``'s candidates per dimension: (family, settings on top of the family's recipe), probed smallest
+first."""
+
+SWEEP_SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
+         "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
+                            3: dict(resolution=65, initial_resolution=33, upsample_at=(200,))}, "recipe": {}},
+         "hashgrid": {"T12": dict(log2_hashmap_size=12), "recipe": {}}}
+"""``mitnerf sweep``'s sizes, per family: size label -> settings on top of its recipe (or ``{dim: settings}``)."""
 
 
 def get_recipe(name: str) -> Recipe:

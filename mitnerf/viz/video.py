@@ -16,6 +16,7 @@ from ..data.cameras import Cameras
 from ..data.color import to_uint8
 from ..data.rig import look_at_3d
 from ..errors import MitnerfError
+from ..settings import check, setting
 from .strips import colorize_depth
 
 
@@ -23,34 +24,25 @@ from .strips import colorize_depth
 class OrbitConfig:
     """A 360 degree turn-table orbit around ``center``."""
 
-    n_frames: int = 120
+    n_frames: int = setting(120, lo=1, hi=100_000, flag="--frames")
     """Frames in one turn (120 at 30 fps: a 4 s turn)."""
-    resolution: int = 100
+    resolution: int = setting(100, lo=2, hi=4096, flag="--image-size", unit="pixels")
     """Frame width and height in pixels."""
-    elevation: float = 25.0
+    elevation: float = setting(25.0, lo=-89.8999, hi=89.8999, flag="--elevation", unit="degrees")
     """Camera height above the horizontal plane through ``center``, in degrees (|e| < 89.9)."""
-    radius: float = 3.5
+    radius: float = setting(3.5, lo=0, above=True, hi=1e4, flag="--radius", unit="world units")
     """Distance from ``center`` to every camera (world units)."""
-    fov: float = 40.0
+    fov: float = setting(40.0, lo=0, above=True, hi=179, flag="--fov", unit="degrees")
     """Horizontal field of view in degrees."""
-    center: tuple = (0.0, 0.0, 0.0)
+    center: tuple = setting((0.0, 0.0, 0.0), lo=-1e4, hi=1e4)
     """The point every camera looks at and the orbit turns around (z axis through it)."""
-    start_azimuth: float = 0.0
+    start_azimuth: float = setting(0.0, lo=-360, hi=360, unit="degrees")
     """Azimuth of the first frame in degrees (0: the +x side)."""
-    fps: float = 30.0
+    fps: float = setting(30.0, lo=0, above=True, hi=1000, flag="--fps", unit="frames per second")
     """Playback rate of the written videos."""
 
     def validate(self) -> None:
-        for bad, message in [
-                (self.n_frames < 1, f"need at least one frame, got --frames {self.n_frames}"),
-                (self.resolution < 2, f"--resolution must be at least 2 pixels, got {self.resolution}"),
-                (not 0 < self.fov < 180, f"--fov must be between 0 and 180 degrees, got {self.fov}"),
-                (not self.radius > 0, f"--radius must be positive, got {self.radius}"),
-                (not abs(self.elevation) < 89.9, f"--elevation must be within (-89.9, 89.9) degrees (straight "
-                                                 f"above, the camera has no defined 'up'), got {self.elevation}"),
-                (not self.fps > 0, f"--fps must be positive, got {self.fps}")]:
-            if bad:
-                raise MitnerfError(message)
+        check(self)
 
 
 def orbit_cameras(cfg: OrbitConfig) -> Cameras:

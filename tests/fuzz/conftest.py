@@ -57,7 +57,7 @@ def base():
         v, f, _ = get_scene("square").polygon.prism()
         write_ply(root / "mesh.ply", v, f)
         p["ply"] = root / "mesh.ply"
-        small = ["--iters", "2", "--field", "vanilla", "--width", "8", "--depth", "2", "--samples", "8", "--fine", "0",
+        small = ["--iters", "2", "--field", "vanilla", "--mlp-width", "8", "--mlp-depth", "2", "--samples", "8", "--fine", "0",
                  "--pos-L", "2", "--dir-L", "1", "--batch", "64", "--no-figures"]
         for name, data in (("ckpt3", "blender"), ("ckpt2", "nerf2d")):
             rc, out, err, _ = run_main(["fit", "--data", p[data], "--out", root / name, *small])

@@ -206,7 +206,7 @@ def test_checkpoints(base, data):
         fn()
         out = t / "video"
         if cmd.startswith("video"):
-            argv = ["video", "--checkpoint", ck, "--out", out, "--frames", "2", "--resolution", "4",
+            argv = ["video", "--checkpoint", ck, "--out", out, "--frames", "2", "--image-size", "4",
                     "--mesh-resolution", "8", "--chamfer-points", "10", "--level", "auto"]
         else:
             argv = ["fit", "--resume", ck, *(flag if what == "resume flags" else [])]
@@ -235,12 +235,12 @@ def test_fixed_cases(base, case):
                                                  "--out", out], t, out)
             assert "GiB" in line
         elif case == "dataset memory":
-            line = refused("fixed cases", case, ["dataset", "--scene", "vase", "--views", "100000", "--resolution",
+            line = refused("fixed cases", case, ["dataset", "--scene", "vase", "--views", "100000", "--image-size",
                                                  "16384", "--out", out], t, out)
             assert "GiB" in line
         else:
             line = refused("fixed cases", case, ["video", "--checkpoint", base["ckpt3"], "--frames", "100000",
-                                                 "--resolution", "4096", "--out", out], t, out)
+                                                 "--image-size", "4096", "--out", out], t, out)
             assert "GiB" in line
 
 

@@ -102,7 +102,7 @@ def test_polygon_files(base, data):
             fn()
         out = t / "out"
         refused("polygon files", f"{kind}: {desc}", ["dataset", "--polygon", f, "--out", out, "--views", "1",
-                                                      "--val", "0", "--test", "1", "--resolution", "4", "--spp", "1"],
+                                                      "--val", "0", "--test", "1", "--image-size", "4", "--spp", "1"],
                 t, out)
 
 
@@ -160,6 +160,6 @@ def test_mitsuba_xml_files(base, data):
         f = t / "scene.xml"
         f.write_bytes(junk) if text is None else f.write_text(text)
         out = t / "out"
-        argv = ["dataset", "--scene", f, "--out", out, "--views", "1", "--val", "0", "--test", "1", "--resolution",
+        argv = ["dataset", "--scene", f, "--out", out, "--views", "1", "--val", "0", "--test", "1", "--image-size",
                 "4", "--spp", "1"]
         refused("Mitsuba XML files", f"{kind}: {desc}", argv, t, out)

@@ -44,16 +44,16 @@ FIT_FLAGS = {"--iters": (True, 1, 10 ** 9, False), "--time-budget": (False, 0, 1
              "--seed": (True, 0, 2 ** 32 - 1, False), "--val-every": (True, 0, 10 ** 9, False),
              "--threads": (True, 1, 1024, False), "--depth-weight": (False, 0, 1e6, False),
              "--depth-sigma": (False, 0, 1e6, True), "--samples": (True, 1, 4096, False),
-             "--fine": (True, 0, 4096, False), "--width": (True, 2, 1024, False), "--depth": (True, 1, 32, False),
+             "--fine": (True, 0, 4096, False), "--mlp-width": (True, 2, 1024, False), "--mlp-depth": (True, 1, 32, False),
              "--pos-L": (True, 0, 24, False), "--dir-L": (True, 0, 12, False),
-             "--resolution": (True, 2, 8193, False), "--sh-degree": (True, 1, 8, False)}
+             "--grid-resolution": (True, 2, 8193, False), "--sh-degree": (True, 1, 8, False)}
 DATASET_FLAGS = {"--views": (True, 0, 100_000, False, ["0"]), "--val": (True, 0, 100_000, False),
-                 "--test": (True, 0, 100_000, False), "--resolution": (True, 0, 16384, False, ["0"]),
+                 "--test": (True, 0, 100_000, False), "--image-size": (True, 0, 16384, False, ["0"]),
                  "--radius": (False, 0, 1e4, True), "--fov": (False, 0, 179, True), "--noise": (False, 0, 100, False),
                  "--radius-std": (False, 0, 1e4, False), "--angle-std": (False, 0, 1e4, False),
                  "--position-std": (False, 0, 1e4, False), "--look-std": (False, 0, 1e4, False),
                  "--spp": (True, 1, 1 << 16, False), "--seed": (True, 0, 2 ** 32 - 1, False)}
-VIDEO_FLAGS = {"--frames": (True, 1, 100_000, False), "--resolution": (True, 1, 4096, False, ["1"]),
+VIDEO_FLAGS = {"--frames": (True, 1, 100_000, False), "--image-size": (True, 1, 4096, False, ["1"]),
                "--elevation": (False, -90, 90, False, ["89.95", "-89.95", "90", "-90"]),
                "--radius": (False, 0, 1e4, True), "--fov": (False, 0, 179, True), "--fps": (False, 0, 1000, True),
                "--mesh-resolution": (True, 2, 1024, False), "--chamfer-points": (True, 1, 10 ** 7, False)}
@@ -153,7 +153,7 @@ def test_dataset_flags(base, data):
     with case_dir() as t:
         out = t / "out"
         argv = ["dataset", "--scene", "square", "--out", out, "--views", "1", "--val", "0", "--test", "1",
-                "--resolution", "4", "--spp", "1", *as_args(data, flag, value)]
+                "--image-size", "4", "--spp", "1", *as_args(data, flag, value)]
         refused("command-line values: dataset", f"{flag} {value!r}", argv, t, out)
 
 
@@ -170,7 +170,7 @@ def test_video_flags(base, data):
         flag, value = draw_flag(data, VIDEO_FLAGS)
     with case_dir() as t:
         out = t / "out"
-        argv = ["video", "--checkpoint", base["ckpt3"], "--out", out, "--frames", "2", "--resolution", "4",
+        argv = ["video", "--checkpoint", base["ckpt3"], "--out", out, "--frames", "2", "--image-size", "4",
                 "--mesh-resolution", "8", "--chamfer-points", "10", "--level", "auto", *as_args(data, flag, value)]
         refused("command-line values: video", f"{flag} {value!r}", argv, t, out)
 
@@ -186,7 +186,7 @@ def test_an_infinite_mesh_level(base):
     with case_dir() as t:
         out = t / "out"
         refused("fixed cases", "video --level inf", ["video", "--checkpoint", base["ckpt3"], "--out", out, "--frames",
-                                                     "2", "--resolution", "4", "--mesh-resolution", "8", "--level",
+                                                     "2", "--image-size", "4", "--mesh-resolution", "8", "--level",
                                                      "inf"], t, out)
 
 

@@ -32,10 +32,10 @@ def test_valid_inputs_in_unicode_paths_with_spaces_work(base):
         (t / "öutline ✓.json").write_text(json.dumps({"name": "fuzz ✓", "points": ring_points(6)}))
         for flag, f in (("--scene", "szène ✓.xml"), ("--polygon", "öutline ✓.json")):
             rc, stdout, err, _ = run_main(["dataset", flag, t / f, "--out", t / f"dätä {flag}", "--views", "1",
-                                           "--val", "0", "--test", "1", "--resolution", "4", "--spp", "1"])
+                                           "--val", "0", "--test", "1", "--image-size", "4", "--spp", "1"])
             assert rc == 0, err
         rc, stdout, err, _ = run_main(["video", "--checkpoint", base["ckpt3"], "--out", t / "vïdeo ✓", "--frames",
-                                       "2", "--resolution", "4", "--mesh-resolution", "8", "--chamfer-points", "10",
+                                       "2", "--image-size", "4", "--mesh-resolution", "8", "--chamfer-points", "10",
                                        "--level", "auto"])
         assert rc == 0, err
     from mitnerf.data.formats import load_dataset

@@ -1,0 +1,34 @@
+"""A sub-command is a dataclass: its fields (made with :func:`mitnerf.settings.setting`, each with its flag and
+the string under it as its help) are the command's options; configs of the library add theirs beside them."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+from ..settings import add_flags, check
+
+
+def add_command(sub, name: str, cls, run, *configs, help: str) -> argparse.ArgumentParser:
+    """The sub-command ``name``: the flags of the dataclass ``cls`` and of each ``(config class, prefix, shown)``
+    in ``configs`` (their flags unset hold None: the config's own default, named by ``shown(key)``, applies)."""
+    p = sub.add_parser(name, help=help, description=f"{help[0].upper()}{help[1:]}.")
+    add_flags(p, cls)
+    for config, prefix, shown in configs:
+        add_flags(p, config, prefix=prefix, overrides=True, shown=shown)
+    p.set_defaults(run=run, command=cls)
+    return p
+
+
+def options(cls, args, prefix: str = "") -> dict:
+    """The values of ``cls``'s fields in the parsed ``args`` (a config's: only the flags given)."""
+    given = vars(args)
+    return {f.name: given[prefix + f.name] for f in dataclasses.fields(cls)
+            if prefix + f.name in given and (given[prefix + f.name] is not None or not prefix)}
+
+
+def parse(args):
+    """The command's dataclass, filled from ``args`` and checked."""
+    cmd = args.command(**options(args.command, args))
+    check(cmd)
+    return cmd
