@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .._io import Output, atomic_write_bytes
-from ..data.formats import WRITERS, check_output, load_dataset, tiny_nerf_bytes
+from ..data.formats import DIMS, FORMATS, WRITERS, check_output, load_dataset, tiny_nerf_bytes
 from ..data.generate import make_dataset
 from ..data.rig import RigConfig, noise_preset
 from ..errors import ConfigError
@@ -47,7 +47,7 @@ def register(sub) -> None:
                    "lights (default); path: Mitsuba's path tracer (default with --env)")
     p.add_argument("--seed", type=number(True, 0, 2 ** 32 - 1), default=0,
                    help="seed of placement noise and of the renderer")
-    p.add_argument("--format", choices=["nerf2d", "blender", "nerfstudio", "tiny_nerf"],
+    p.add_argument("--format", choices=list(FORMATS),
                    help="file format (default: nerf2d for 2D, blender for 3D)")
     p.add_argument("--kind", choices=["2d", "3d"], help="kind of a scene given as XML")
     p.set_defaults(run=run_dataset)
@@ -65,9 +65,9 @@ def run_dataset(args) -> int:
     spp = args.spp or (1024 if integrator == "path" else 64)
     dim = 2 if scene.kind == "2d" else 3
     fmt = args.format or ("nerf2d" if dim == 2 else "blender")
-    if (fmt == "nerf2d" and dim == 3) or (fmt in ("blender", "tiny_nerf") and dim == 2):
-        raise ConfigError(f"--format {fmt} cannot hold a {dim}D dataset; use "
-                          f"{'nerf2d or nerfstudio' if dim == 2 else 'blender, nerfstudio or tiny_nerf'}")
+    if dim not in DIMS.get(fmt, (3,)):
+        fits = [f for f in FORMATS if dim in DIMS.get(f, (3,))]
+        raise ConfigError(f"--format {fmt} cannot hold a {dim}D dataset; use {', '.join(fits[:-1])} or {fits[-1]}")
     noise = {k: v if getattr(args, k) is None else getattr(args, k) for k, v in noise_preset(args.noise).items()}
     rig = RigConfig(dim=dim, n_train=args.views, n_val=args.val, n_test=args.test, radius=args.radius,
                     resolution=args.resolution, fov=args.fov, layout=args.layout, seed=args.seed, **noise)
