@@ -41,7 +41,7 @@ class Cameras:
     poses: np.ndarray
     """``[n, 3, 3]`` (2D) or ``[n, 4, 4]`` (3D) camera-to-world matrices."""
     fx: np.ndarray
-    """Focal length in pixels along image rows (3D: the horizontal one; 2D: the only one): a number or ``[n]``."""
+    """Horizontal focal length in pixels (2D: the only one, along the view), a number or ``[n]``."""
     height: int
     """Pixel rows (in 2D the length of the 1D image)."""
     width: int = 1

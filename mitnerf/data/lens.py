@@ -52,9 +52,11 @@ def _forward(xy, k):
 
 def undistort(xy_d: np.ndarray, k: np.ndarray, tol: float = 1e-12, iterations: int = 50) -> np.ndarray:
     """The undistorted points the lens shows at ``xy_d [..., 2]`` (Newton's method from ``xy_d``, until every
-    point's residual is below ``tol``, in normalised units); raises when some point does not converge."""
+    point's residual is below ``tol`` in normalised units, or within rounding of float64); raises when some point
+    does not converge."""
     xy_d = np.asarray(xy_d, np.float64)
     xy = xy_d.copy()
+    tol = max(tol, 8 * np.finfo(np.float64).eps * max(1.0, float(np.abs(xy_d).max(initial=0.0))))
     for _ in range(iterations):
         f, J = _forward(xy, k)
         res = f - xy_d

@@ -118,8 +118,9 @@ def warn_skipped(where: str, missing: list, total: int) -> None:
 def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] | None = None,
                scale_to: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Views of one size as ``(colour [n, h, w, 3] premultiplied by alpha, alpha [n, h, w])`` float32, box-filtered
-    by ``downscale`` (views one pixel wide, 2D, along their rows only): the image's own alpha, or ``masks`` (grey, 1 = the object) when given. Sizes are checked
-    from the headers first, and the memory of the result (``scale_to``: the size the views must have)."""
+    by ``downscale`` (views one pixel wide, 2D, along their rows only): the image's own alpha, or ``masks`` (grey,
+    1 = the object) when given. Sizes are checked from the headers first, and the memory of the result
+    (``scale_to``: the size the views must have)."""
     sizes = {image_size(p) for p in paths}
     if len(sizes) != 1:
         raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all views need one resolution: "

@@ -87,7 +87,8 @@ def read_colmap(path: str | Path, downscale: int = 1) -> Dataset:
     shots = [model.images[i] for i in keep]
     for name, _, _, cid in shots:
         if cid not in model.cameras:
-            raise DataError(f"{where}: image {name} uses camera {cid}, which the cameras file lacks; export the model again")
+            raise DataError(f"{where}: image {name} uses camera {cid}, which the cameras file lacks; export the "
+                            "model again")
     sizes = {model.cameras[cid][1:3] for *_, cid in shots}
     if len(sizes) != 1:
         raise DataError(f"{where}: the images' cameras have different sizes {sorted(sizes)[:3]}; mitnerf needs one "
@@ -184,7 +185,7 @@ def write_colmap(dataset: Dataset, folder: Path, binary: bool = False) -> None:
         o, d = c.rays()
         hit = np.flatnonzero(np.isfinite(views.depth).reshape(-1))
         pick = hit[np.linspace(0, len(hit) - 1, min(POINTS, len(hit))).astype(int)]
-        points = (o + views.depth[..., None] * d).reshape(-1, 3)[pick]
+        points = (o + np.where(np.isfinite(views.depth), views.depth, 0)[..., None] * d).reshape(-1, 3)[pick]
         i, v, u = np.unravel_index(pick, views.depth.shape)
         tracks = list(zip(i.tolist(), (u + 0.5).tolist(), (v + 0.5).tolist()))
     (folder / "images").mkdir()

@@ -25,6 +25,7 @@ import numpy as np
 
 from ...errors import DataError
 from .capture import MAX_VIEWS
+from .common import integer
 
 MODEL_IDS = {0: ("SIMPLE_PINHOLE", 3), 1: ("PINHOLE", 4), 2: ("SIMPLE_RADIAL", 4), 3: ("RADIAL", 5),
              4: ("OPENCV", 8), 5: ("OPENCV_FISHEYE", 8), 6: ("FULL_OPENCV", 12), 7: ("FOV", 5),
@@ -103,7 +104,8 @@ class _Text:
             if not t:
                 continue
             if len(t) < 10:
-                raise DataError(f"{self.path}, line {line}: an image needs IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME")
+                raise DataError(f"{self.path}, line {line}: an image needs IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID "
+                                "NAME")
             v = self._numbers(t[1:8], line)
             pts = rows[k][1].split() if k < len(rows) else []
             if len(pts) % 3:
@@ -141,6 +143,13 @@ class _Binary:
         self.at += size
         return out
 
+    def end(self, out):
+        """``out``, once every byte of the file has been read."""
+        if self.at != len(self.data):
+            raise DataError(f"{self.path} holds {len(self.data) - self.at} bytes after its last record; export the "
+                            "model again")
+        return out
+
     def count(self, least: int, limit: int, what: str) -> int:
         """A record count that the rest of the file can hold (``least`` bytes each) and at most ``limit``."""
         n = self.take("Q")[0]
@@ -157,7 +166,7 @@ class _Binary:
                                 "export the model again")
             name, n = MODEL_IDS[model]
             _add_camera(out, cid, name, w, h, np.array(self.take(f"{n}d")), str(self.path))
-        return out
+        return self.end(out)
 
     def images(self) -> list:
         out = []
@@ -174,7 +183,7 @@ class _Binary:
             n = self.count(24, MAX_POINTS, "2D points")
             self.at += 24 * n
             out.append((name, np.array(v[1:5]), np.array(v[5:8]), v[8]))
-        return out
+        return self.end(out)
 
     def points(self) -> np.ndarray:
         n = self.count(51, MAX_POINTS, "3D points")
@@ -183,12 +192,13 @@ class _Binary:
             out[j] = self.take("Q3d3Bd")[1:4]
             track = self.count(8, MAX_VIEWS * 1000, "track elements")
             self.at += 8 * track
-        return out
+        return self.end(out)
 
 
 def _add_camera(out: dict, cid: int, model: str, w: int, h: int, params: np.ndarray, where: str) -> None:
     if cid in out:
         raise DataError(f"{where}: camera {cid} is defined twice; export the model again")
+    w, h = integer(w, f"{where}: camera {cid}'s width"), integer(h, f"{where}: camera {cid}'s height")
     if model in PARAMS and len(params) != PARAMS[model]:
         raise DataError(f"{where}: a {model} camera has {PARAMS[model]} parameters, camera {cid} has {len(params)}")
     out[cid] = (model, w, h, params)

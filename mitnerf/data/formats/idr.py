@@ -30,7 +30,7 @@ from ..cameras import Cameras
 from ..color import to_uint8
 from ..dataset import Dataset, Split, bounds_from_cameras
 from .capture import IMAGE_SUFFIXES, check_downscale, check_intrinsics, hold_out, read_views
-from .common import check_poses, image_size, npz_shapes, read_meta, read_npz, write_meta
+from .common import check_memory, check_poses, image_size, npz_shapes, read_meta, read_npz, write_meta
 
 CAMERA_FILES = ("cameras_sphere.npz", "cameras.npz")
 MAX_SKEW = 0.05
@@ -75,6 +75,7 @@ def read_idr(path: str | Path, downscale: int = 1) -> Dataset:
     K, poses = np.array([c[0] for c in cams]), np.array([c[1] for c in cams])
     check_poses(poses, where)
     H, W = image_size(images[0])
+    check_memory(n * (H // downscale) * (W // downscale), str(path))
     skew = np.abs(K[:, 0, 1]) * H / K[:, 1, 1]
     if skew.max() > MAX_SKEW:
         raise DataError(f"{where}: image {int(skew.argmax())}'s K has a skew shifting pixels by {skew.max():.3g} px "

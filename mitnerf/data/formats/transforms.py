@@ -321,7 +321,7 @@ def read_transforms(path: str | Path, downscale: int = 1) -> Dataset:
         unit = header.get("mitnerf_depth", {"kind": "z", "unit": NS_DEPTH_UNIT})
         if not (isinstance(unit, dict) and unit.get("kind") == "z"):
             raise DataError(f"{where}: 'mitnerf_depth' must be {{'kind': 'z', 'unit': 0.001}}; fix or remove it")
-        unit = number(unit.get("unit"), f"{where}: mitnerf_depth unit")
+        unit = number(unit.get("unit"), f"{where}: mitnerf_depth unit", 0)
         splits = {s: _read_frames(path, header, fr, f"{where} ({s})", unit, dim, downscale)
                   for s, fr in pick.items() if fr}
     if "train" not in splits:
