@@ -279,8 +279,12 @@ def check_memory(n_pixels: int, where: str) -> None:
                         f"this machine has {avail / 2**30:.1f} GiB free: use fewer or smaller views")
 
 
+CAPTURE_KEYS = ("path", "bounds", "points_bounds", "scale_mat")
+"""What a reader records about the files it read, which a written dataset's files replace."""
+
+
 def write_meta(folder: Path, dataset, fmt: str) -> None:
-    meta = {k: v for k, v in dataset.meta.items() if k != "path"}
+    meta = {k: v for k, v in dataset.meta.items() if k not in CAPTURE_KEYS}
     meta.update(format=fmt, near=dataset.near, far=dataset.far, splits={k: len(v) for k, v in dataset.splits.items()})
     (folder / META).write_text(json.dumps(meta, indent=1))
 
