@@ -95,7 +95,7 @@ def test_glossy_colour_depends_on_the_view_direction():
     p = np.array([0.8, 0.1])
     angles = np.radians([2.0, 50.0])
     pos = p + 3.0 * np.stack([np.cos(angles), np.sin(angles)], 1)
-    cams = Cameras(look_at_2d(pos, angles + np.pi), focal=2000.0, height=1)   # one narrow pixel each
+    cams = Cameras(look_at_2d(pos, angles + np.pi), 2000.0, height=1)   # one narrow pixel each
     o, d = cams.rays()
     np.testing.assert_allclose(o[:, 0, 0] + exact_depth(get_scene("square").load(), o, d)[0][:, 0, 0, None]
                                * d[:, 0, 0], [p, p], atol=1e-5)

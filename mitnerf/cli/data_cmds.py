@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .._io import Output, write_new_file
 from ..data.cameras import check_pixel_memory
-from ..data.formats import DATASET_BYTES_PER_PIXEL, FORMATS, WRITERS, check_output, load_dataset, tiny_nerf_bytes
+from ..data.formats import DATASET_BYTES_PER_PIXEL, DIMS, FORMATS, WRITERS, check_output, load_dataset, tiny_nerf_bytes
 from ..data.generate import make_dataset
 from ..data.rig import RigConfig, noise_preset
 from ..errors import ConfigError
@@ -90,9 +90,9 @@ def run_dataset(args) -> int:
     spp = args.spp or (1024 if integrator == "path" else 64)
     dim = 2 if scene.kind == "2d" else 3
     fmt = args.format or ("nerf2d" if dim == 2 else "blender")
-    if (fmt == "nerf2d" and dim == 3) or (fmt in ("blender", "tiny_nerf") and dim == 2):
-        raise ConfigError(f"--format {fmt} cannot hold a {dim}D dataset; use "
-                          f"{'nerf2d or nerfstudio' if dim == 2 else 'blender, nerfstudio or tiny_nerf'}")
+    if dim not in DIMS.get(fmt, (3,)):
+        fits = [f for f in FORMATS if dim in DIMS.get(f, (3,))]
+        raise ConfigError(f"--format {fmt} cannot hold a {dim}D dataset; use {', '.join(fits[:-1])} or {fits[-1]}")
     rig = RigConfig(dim=dim, **{**noise_preset(args.noise), **rig_given})
     rig.validate()
     views = rig.n_train + rig.n_val + rig.n_test

@@ -4,13 +4,18 @@ Conventions (the same as the file formats, so rays never need converting):
 
 * **2D (NeRF2D)**: a pose is a 3x3 camera-to-world matrix in homogeneous 2D coordinates: column 0 is the
   viewing direction, column 1 the camera's "up" (towards pixel row 0), column 2 the position. Pixel row ``i``
-  of an ``H``-pixel view looks along ``normalize([f, H/2 - (i + 0.5)])`` in camera space.
-* **3D (Blender / nerfstudio / OpenGL)**: a pose is a 4x4 camera-to-world matrix;
-  the camera looks down -z with +y up and +x right. Pixel ``(row v, column u)`` looks
-  along ``normalize([(u + 0.5 - W/2) / f, -(v + 0.5 - H/2) / f, -1])``.
+  of an ``H``-pixel view looks along ``normalize([f, cy - (i + 0.5)])`` in camera space (``cy = H/2`` unless
+  given).
+* **3D (Blender / nerfstudio / OpenGL)**: a pose is a 4x4 camera-to-world matrix; the camera looks down -z
+  with +y up and +x right. Pixel ``(row v, column u)`` shows the normalised point
+  ``(x_d, y_d) = ((u + 0.5 - cx) / fx, (v + 0.5 - cy) / fy)`` (the image's top-left corner is ``(0, 0)``, as
+  in COLMAP and nerfstudio); the lens (:mod:`.lens`) maps it back to ``(x, y)``, and the pixel looks along
+  ``normalize([x, -y, -1])``. Without distortion and with ``cx = W/2``, ``cy = H/2``, ``fx = fy = f`` this is
+  ``normalize([(u + 0.5 - W/2) / f, -(v + 0.5 - H/2) / f, -1])``.
 
-Directions are unit length, so a depth is the distance along the pixel-centre ray.
-Images are ``[n, H, W, ...]``; a 2D view is ``H`` pixels tall and one pixel wide.
+Intrinsics are per frame (arrays ``[n]``); frames that share them share the work of undistorting. Directions
+are unit length, so a depth is the distance along the pixel-centre ray. Images are ``[n, H, W, ...]``; a 2D
+view is ``H`` pixels tall and one pixel wide.
 """
 
 from __future__ import annotations
@@ -21,9 +26,12 @@ import numpy as np
 
 from .._io import available_memory
 from ..errors import ConfigError, MitnerfError
+from .lens import distort, fold_radius, jacobian, undistort
 
 PIXEL_BYTES = 32
 """The least memory a pixel of a set of views costs once rendered (colour, alpha, depth, mask)."""
+UNDISTORT_TOL = 1e-9
+"""Pixels: how closely an undistorted pixel-centre ray reproduces its pixel through the lens."""
 
 
 def check_pixel_memory(n: int, H: int, W: int) -> None:
@@ -39,16 +47,26 @@ def check_pixel_memory(n: int, H: int, W: int) -> None:
 
 @dataclass
 class Cameras:
-    """A set of pinhole cameras sharing one focal length and resolution."""
+    """A set of pinhole cameras of one resolution, each with its own intrinsics and (3D) lens distortion."""
 
     poses: np.ndarray
     """``[n, 3, 3]`` (2D) or ``[n, 4, 4]`` (3D) camera-to-world matrices."""
-    focal: float
-    """Focal length in pixels."""
+    fx: np.ndarray
+    """Horizontal focal length in pixels (2D: the only one, along the view), a number or ``[n]``."""
     height: int
     """Pixel rows (in 2D the length of the 1D image)."""
     width: int = 1
     """Pixel columns (1 in 2D)."""
+    fy: np.ndarray | None = None
+    """Vertical focal length in pixels (3D), a number or ``[n]``; None: ``fx`` (square pixels; 2D: always)."""
+    cx: np.ndarray | None = None
+    """Principal point's column in pixels from the image's left edge, a number or ``[n]``; None: ``width / 2``."""
+    cy: np.ndarray | None = None
+    """Principal point's row in pixels from the image's top edge (2D: along the view), a number or ``[n]``;
+    None: ``height / 2``."""
+    distortion: np.ndarray | None = None
+    """Lens coefficients ``(k1, k2, p1, p2, k3)`` (:mod:`.lens`), ``[5]`` or ``[n, 5]`` (3D only); None or all
+    zero: none (stored as None)."""
 
     def __post_init__(self):
         self.poses = np.asarray(self.poses, dtype=np.float64)
@@ -57,13 +75,32 @@ class Cameras:
         bad = np.flatnonzero(~np.isfinite(self.poses).all(axis=(1, 2)))
         if len(bad):
             raise MitnerfError(f"pose {bad[0]} contains NaN or infinity; fix or drop that frame")
-        if not (np.isfinite(self.focal) and self.focal > 0):
-            raise MitnerfError(f"focal length must be a positive number of pixels, got {self.focal}")
         if self.height < 1 or self.width < 1:
             raise MitnerfError(f"resolution must be at least 1 pixel, got {self.height}x{self.width}")
         if self.dim == 2 and self.width != 1:
             raise MitnerfError("2D cameras see 1D images: width must be 1")
-        check_pixel_memory(len(self.poses), self.height, self.width)
+        n = len(self.poses)
+        per_frame = lambda v, default: np.array(np.broadcast_to(np.asarray(default if v is None else v, np.float64),
+                                                                (n,)))
+        self.fx = per_frame(self.fx, None)
+        self.fy, self.cx, self.cy = (per_frame(self.fy, self.fx), per_frame(self.cx, self.width / 2),
+                                     per_frame(self.cy, self.height / 2))
+        for name in ("fx", "fy"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) & (v > 0)).all():
+                raise MitnerfError(f"focal length {name} must be a positive number of pixels, got {v[~(v > 0)][:1]}")
+        if not (np.isfinite(self.cx).all() and np.isfinite(self.cy).all()):
+            raise MitnerfError("the principal point (cx, cy) must be finite numbers of pixels")
+        if self.dim == 2 and np.any(self.fy != self.fx):
+            raise MitnerfError("2D cameras have one focal length: fy must equal fx")
+        if self.distortion is not None:
+            k = np.array(np.broadcast_to(np.asarray(self.distortion, np.float64), (n, 5)))
+            if not np.isfinite(k).all():
+                raise MitnerfError("lens distortion coefficients must be finite numbers")
+            if self.dim == 2 and k.any():
+                raise MitnerfError("2D cameras have no lens distortion")
+            self.distortion = k if k.any() else None
+        check_pixel_memory(n, self.height, self.width)
 
     @property
     def dim(self) -> int:
@@ -78,61 +115,155 @@ class Cameras:
         return self.poses[:, : self.dim, self.dim]
 
     @property
+    def intrinsics(self) -> np.ndarray:
+        """``[n, 9]``: ``fx, fy, cx, cy, k1, k2, p1, p2, k3`` of every frame."""
+        k = np.zeros((len(self), 5)) if self.distortion is None else self.distortion
+        return np.c_[self.fx, self.fy, self.cx, self.cy, k]
+
+    @property
+    def simple(self) -> bool:
+        """One focal length shared by every frame, square pixels, the principal point at the image's centre and
+        no lens distortion (what the NeRF2D and tiny-NeRF formats and Mitsuba's sensors can hold)."""
+        return bool(self.distortion is None and np.all(self.fx == self.fx[:1]) and np.all(self.fy == self.fx)
+                    and np.all(self.cx == self.width / 2) and np.all(self.cy == self.height / 2))
+
+    @property
+    def focal(self) -> float:
+        """The one focal length of :attr:`simple` cameras (code that handles any camera reads ``fx`` ...)."""
+        if not len(self):
+            raise MitnerfError("an empty set of cameras has no focal length")
+        if not self.simple:
+            raise MitnerfError("these cameras have per-frame intrinsics, an off-centre principal point or lens "
+                               "distortion; this use needs one focal length (convert the dataset to pinhole views)")
+        return float(self.fx[0])
+
+    @property
     def fov(self) -> float:
-        """Field of view in degrees along the image length (2D) or width (3D)."""
+        """Field of view in degrees along the image length (2D) or width (3D), of :attr:`simple` cameras."""
         n = self.height if self.dim == 2 else self.width
         return float(np.degrees(2 * np.arctan(n / (2 * self.focal))))
 
     def subset(self, index) -> "Cameras":
-        return Cameras(self.poses[index], self.focal, self.height, self.width)
+        pick = lambda a: None if a is None else a[index]
+        return Cameras(self.poses[index], self.fx[index], self.height, self.width, self.fy[index], self.cx[index],
+                       self.cy[index], pick(self.distortion))
 
-    def _raw_directions(self) -> np.ndarray:
-        """Pixel-centre directions in camera space, not normalised, ``[H, W, dim]``."""
-        f, H, W = self.focal, self.height, self.width
+    @classmethod
+    def concatenate(cls, parts: list["Cameras"]) -> "Cameras":
+        """The frames of several sets of one resolution, in order."""
+        c0 = parts[0]
+        if any((c.height, c.width) != (c0.height, c0.width) for c in parts):
+            raise MitnerfError("cameras of different resolutions cannot be joined")
+        cat = lambda name: np.concatenate([getattr(c, name) for c in parts])
+        lens = None if all(c.distortion is None for c in parts) else np.concatenate(
+            [np.zeros((len(c), 5)) if c.distortion is None else c.distortion for c in parts])
+        return cls(cat("poses"), cat("fx"), c0.height, c0.width, cat("fy"), cat("cx"), cat("cy"), lens)
+
+    def downscaled(self, factor: int) -> "Cameras":
+        """The cameras of images box-filtered by ``factor`` (the remainder rows and columns cropped at the bottom
+        and right): intrinsics divided by ``factor`` (pixel corners stay corners); 2D views keep one column."""
+        s, W = float(factor), (self.width if self.dim == 2 else self.width // factor)
+        return Cameras(self.poses, self.fx / s, self.height // factor, W, self.fy / s,
+                       self.cx if self.dim == 2 else self.cx / s, self.cy / s, self.distortion)
+
+    def _groups(self) -> tuple[np.ndarray, np.ndarray]:
+        """Frames that share intrinsics: ``(unique [g, 9], inverse [n])``."""
+        unique, inverse = np.unique(self.intrinsics, axis=0, return_inverse=True)
+        return unique, inverse.reshape(-1)
+
+    def _directions(self, p: np.ndarray, steps: bool = False):
+        """For intrinsics ``p [9]``: pixel-centre directions in camera space, not normalised, ``[H, W, dim]``; with
+        ``steps``, also each pixel's extent (:meth:`footprint`) as steps of the raw direction, ``[H, W, 2, dim]``."""
+        H, W = self.height, self.width
+        fx, fy, cx, cy, k = p[0], p[1], p[2], p[3], p[4:]
         if self.dim == 2:
-            return np.stack([np.full(H, f), H / 2 - (np.arange(H) + 0.5)], -1)[:, None, :]
-        U, V = np.meshgrid((np.arange(W) + 0.5 - W / 2) / f, -(np.arange(H) + 0.5 - H / 2) / f)
-        return np.stack([U, V, -np.ones_like(U)], -1)
+            raw = np.stack([np.full(H, fx), cy - (np.arange(H) + 0.5)], -1)[:, None, :]
+            return (raw, np.broadcast_to([[0.0, -1.0], [0.0, 0.0]], (H, 1, 2, 2))) if steps else raw
+        X, Y = np.meshgrid((np.arange(W) + 0.5 - cx) / fx, (np.arange(H) + 0.5 - cy) / fy)
+        xy = np.stack([X, Y], -1)
+        if k.any():
+            xy = undistort(xy, k, UNDISTORT_TOL / max(fx, fy))
+        raw = np.stack([xy[..., 0], -xy[..., 1], -np.ones_like(X)], -1)
+        if not steps:
+            return raw
+        J = np.linalg.inv(jacobian(xy, k)) if k.any() else np.eye(2)   # d(x, y) / d(x_d, y_d)
+        d = np.broadcast_to(J, (H, W, 2, 2)) * np.array([1 / fx, 1 / fy])     # [H, W, (x, y), (column, row)]
+        s = np.zeros((H, W, 2, 3))                                            # [H, W, (column, row), xyz]
+        s[..., 0], s[..., 1] = d[..., 0, :], -d[..., 1, :]
+        return raw, s
 
-    def camera_directions(self) -> np.ndarray:
-        """Unit pixel-centre directions in camera space, ``[H, W, dim]``."""
-        d = self._raw_directions()
-        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+    def _per_frame(self, fn, shape: tuple, index=None) -> np.ndarray:
+        """``fn(frames, raw, steps)`` of every group of frames sharing intrinsics, stacked into ``[n, *shape]``."""
+        unique, inverse = self._groups()
+        frames = np.arange(len(self)) if index is None else np.arange(len(self))[index]
+        out = np.empty((len(frames), *shape))
+        for g, p in enumerate(unique):
+            mine = np.flatnonzero(inverse[frames] == g)
+            if len(mine):
+                out[mine] = fn(frames[mine], *self._directions(p, steps=True))
+        return out
+
+    def camera_directions(self, index=None) -> np.ndarray:
+        """Unit pixel-centre directions in camera space of the frames ``index`` (all if None), ``[n, H, W, dim]``."""
+        unit = lambda frames, raw, _: (raw / np.linalg.norm(raw, axis=-1, keepdims=True))[None]
+        return self._per_frame(unit, (self.height, self.width, self.dim), index)
+
+    def depth_stretch(self) -> np.ndarray:
+        """``[n]``: the largest distance along a pixel-centre ray per unit of depth along the optical axis (3D: the
+        view axis), over each frame's pixels (>= 1: a depth bound times it bounds the distance)."""
+        axis = 0 if self.dim == 2 else -1
+        widest = lambda frames, raw, _: (np.linalg.norm(raw, axis=-1) / np.abs(raw[..., axis])).max()
+        return self._per_frame(widest, (), None)
 
     def footprint(self) -> np.ndarray:
-        """Each pixel's extent as steps of its unit direction, ``[n, H, W, 2, dim]``: the ray
-        through the point ``(a, b)`` of pixel ``(v, u)`` (``a, b`` in [-1/2, 1/2], 0 at the
-        centre) has the direction ``normalize(d + a s_0 + b s_1)``. In 2D ``s_0`` steps one row
-        and ``s_1`` is zero (1D views)."""
-        raw, f, k = self._raw_directions(), self.focal, self.dim
-        s = [[0.0, -1.0], [0.0, 0.0]] if k == 2 else [[1 / f, 0, 0], [0, -1 / f, 0]]
-        steps = np.broadcast_to(s, raw.shape[:2] + (2, k)) / np.linalg.norm(raw, axis=-1)[..., None, None]
-        return np.einsum("nij,hwsj->nhwsi", self.poses[:, :k, :k], steps)        # steps: [H, W, 2, dim]
+        """Each pixel's extent as steps of its unit direction, ``[n, H, W, 2, dim]``: the ray through the point
+        ``(a, b)`` of pixel ``(v, u)`` (``a, b`` in [-1/2, 1/2], 0 at the centre) has the direction
+        ``normalize(d + a s_0 + b s_1)`` (to first order through the lens). In 2D ``s_0`` steps one row and ``s_1``
+        is zero (1D views)."""
+        k = self.dim
+
+        def rotate(frames, raw, steps):
+            steps = steps / np.linalg.norm(raw, axis=-1)[..., None, None]
+            return np.einsum("nij,hwsj->nhwsi", self.poses[frames, :k, :k], steps)
+        return self._per_frame(rotate, (self.height, self.width, 2, k))
 
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions of every pixel-centre ray, each ``[n, H, W, dim]``."""
         k = self.dim
-        d = np.einsum("nij,hwj->nhwi", self.poses[:, :k, :k], self.camera_directions())
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+
+        def rotate(frames, raw, _):
+            d = np.einsum("nij,hwj->nhwi", self.poses[frames, :k, :k], raw / np.linalg.norm(raw, axis=-1)[..., None])
+            return d / np.linalg.norm(d, axis=-1, keepdims=True)
+        d = self._per_frame(rotate, (self.height, self.width, k))
         o = np.broadcast_to(self.origins[:, None, None, :], d.shape)
         return np.ascontiguousarray(o), d
 
     def to_camera(self, points: np.ndarray) -> np.ndarray:
-        """World points ``[m, dim]`` in every camera's axes, ``[n, m, dim]`` (the poses' rotations are orthonormal)."""
+        """World points ``[m, dim]`` in every camera's axes, ``[n, m, dim]`` (through the inverse of each pose's
+        rotation, so a pose read with rounding errors still maps its own rays back)."""
         k = self.dim
-        return np.einsum("nji,nmj->nmi", self.poses[:, :k, :k], points[None] - self.origins[:, None])
+        return np.einsum("nij,nmj->nmi", np.linalg.inv(self.poses[:, :k, :k]), points[None] - self.origins[:, None])
 
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Continuous pixel coordinates of world points in every camera (2D only): ``points [m, 2]`` ->
-        ``(row [n, m], forward [n, m])``. Pixel ``floor(row)`` sees the point (the centre ray of pixel ``i``
-        has ``row == i + 0.5``); ``forward`` is the camera-space distance along the view axis (> 0 in front)."""
-        if self.dim != 2:
-            raise NotImplementedError("project() is defined for 2D cameras")
-        cam = self.to_camera(points)                          # [n, m, 2]
-        fwd, up = cam[..., 0], cam[..., 1]
+        """Continuous pixel coordinates of world points ``[m, dim]`` in every camera, through the lens:
+        ``(pixel, forward)``; ``pixel`` is the row ``[n, m]`` in 2D and ``(row, column)`` ``[n, m, 2]`` in 3D.
+        Pixel ``floor(row)`` (and ``floor(column)``) sees the point (the centre ray of pixel ``i`` has
+        ``row == i + 0.5``); ``forward`` is the camera-space distance along the view axis (> 0 in front). Points
+        behind a camera, or beyond its lens's :func:`~mitnerf.data.lens.fold_radius`, give NaN."""
+        cam = self.to_camera(points)                          # [n, m, dim]
         with np.errstate(divide="ignore", invalid="ignore"):
-            row = self.height / 2 - self.focal * up / fwd
-        return row, fwd
+            if self.dim == 2:
+                fwd = cam[..., 0]
+                return np.where(fwd > 0, self.cy[:, None] - self.fx[:, None] * cam[..., 1] / fwd, np.nan), fwd
+            fwd = -cam[..., 2]
+            xy = np.where((fwd > 0)[..., None], np.stack([cam[..., 0], -cam[..., 1]], -1) / fwd[..., None], np.nan)
+        if self.distortion is not None:
+            k = self.distortion[:, None, :]
+            reach = np.array([fold_radius(c) for c in self.distortion])[:, None]
+            xy = np.where((np.linalg.norm(xy, axis=-1) < reach)[..., None], distort(xy, k), np.nan)
+        row = self.fy[:, None] * xy[..., 1] + self.cy[:, None]
+        col = self.fx[:, None] * xy[..., 0] + self.cx[:, None]
+        return np.stack([row, col], -1), fwd
 
     def mitsuba_frames(self) -> np.ndarray:
         """``to_world`` matrices of Mitsuba ``perspective`` sensors, ``[n, 4, 4]`` (Mitsuba looks down +z, +x to

@@ -28,16 +28,11 @@ MAX_TESTS = 200_000_000
 def pixel_of(cameras: Cameras, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pixel of every camera that sees each world point: ``points [m, D]`` -> ``(row, col, inside)``, each
     ``[n, m]``; ``inside``: the point is in front of the camera and on its image (``row``/``col`` are 0 where not)."""
-    f, H, W = cameras.focal, cameras.height, cameras.width
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if cameras.dim == 2:                        # Cameras.project: row = H/2 - f up / forward, floored
-            row, fwd = cameras.project(points)
-            row, col = np.floor(row), np.zeros_like(fwd)
-        else:                                       # looks down -z; col + 0.5 = W/2 + f x / forward
-            cam = cameras.to_camera(points)                                   # [n, m, 3]
-            fwd = -cam[..., 2]
-            row, col = np.floor(H / 2 - f * cam[..., 1] / fwd), np.floor(W / 2 + f * cam[..., 0] / fwd)
-    inside = (fwd > 0) & (row >= 0) & (row < H) & (col >= 0) & (col < W)
+    H, W = cameras.height, cameras.width
+    pixel, fwd = cameras.project(points)            # through each camera's own intrinsics and lens
+    with np.errstate(invalid="ignore"):
+        row, col = (np.floor(pixel), np.zeros_like(fwd)) if cameras.dim == 2 else np.moveaxis(np.floor(pixel), -1, 0)
+        inside = (fwd > 0) & (row >= 0) & (row < H) & (col >= 0) & (col < W)
     return np.where(inside, row, 0).astype(np.int64), np.where(inside, col, 0).astype(np.int64), inside
 
 

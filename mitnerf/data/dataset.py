@@ -6,7 +6,7 @@ beside them, so any background can be composited later: ``target = color + (1 - 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -107,7 +107,7 @@ class Split:
             return parts[0]
         cat = lambda name: (None if getattr(parts[0], name) is None
                             else np.concatenate([getattr(p, name) for p in parts]))
-        cams = replace(parts[0].cameras, poses=np.concatenate([p.cameras.poses for p in parts]))
+        cams = Cameras.concatenate([p.cameras for p in parts])
         return cls(cams, cat("color"), cat("alpha"), cat("depth"), cat("mask"), cat("linear"))
 
     def target(self, background=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -137,6 +137,18 @@ class Split:
         flat = lambda a, *shape: np.asarray(a, np.float32).reshape(-1, *shape)
         return RaySet(flat(o, D), flat(d, D), flat(target, 3), flat(depth), flat(hit), flat(free),
                       flat(self.cameras.footprint(), 2, D), flat(solid))
+
+    def downscaled(self, factor: int) -> "Split":
+        """The views box-filtered by ``factor`` (:func:`box_downscale`; 2D views along their rows): colour, alpha
+        and linear colour averaged, a mask where most of a block hits; depth maps left out (a block of pixels has
+        no one depth along its centre ray)."""
+        if factor == 1:
+            return self
+        box = lambda a: None if a is None else box_downscale(a, factor, 1 if self.cameras.dim == 2 else factor)
+        alpha, linear = box(self.alpha), box(self.linear)
+        color = box(self.color) if linear is None else display_color(linear, alpha)
+        mask = None if self.mask is None else box(self.mask.astype(np.float32)) > 0.5
+        return Split(self.cameras.downscaled(factor), color, alpha, None, mask, linear)
 
     def subset(self, index) -> "Split":
         pick = lambda a: None if a is None else a[index]
@@ -188,6 +200,16 @@ class Dataset:
         trainer never stops a few-view run for looking collapsed; NaN still stops it)."""
         train = self["train"] if train_index is None else self["train"].subset(train_index)
         return Dataset({"train": train, "test": self["test"]}, self.near, self.far, dict(self.meta))
+
+
+def box_downscale(a: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """``[n, H, W, ...]`` averaged over blocks of ``rows x cols`` pixels (the remainder cropped at the bottom and
+    right, so pixel corners stay where :meth:`~mitnerf.data.cameras.Cameras.downscaled` puts them)."""
+    if rows == cols == 1:
+        return a
+    n, H, W = a.shape[:3]
+    h, w = H // rows, W // cols
+    return a[:, :h * rows, :w * cols].reshape(n, h, rows, w, cols, *a.shape[3:]).mean(axis=(2, 4)).astype(a.dtype)
 
 
 def bounds_from_cameras(cams: list[Cameras], radius: float, margin: float = 0.1) -> tuple[float, float]:

@@ -14,7 +14,7 @@ fixed number of examples, well under a minute) or ``local`` (many more examples)
 number of distinct cases tried is printed at the end of the pytest run; ``FUZZ_TRACE=1``
 (with ``pytest -s``) prints every case and the line it ended in.
 
-This file: the valid inputs (written once per session) and the case counts; the rule and
+This file: the valid inputs (written once per session: the real-capture formats too) and the case counts; the rule and
 the inputs' writers are in ``harness.py``, the bad values and damages in ``strategies.py``.
 """
 
@@ -26,6 +26,7 @@ from pathlib import Path
 import pytest
 
 from mitnerf.data.formats import save_dataset
+from mitnerf.data.formats.colmap import write_colmap
 
 from .harness import CASES, Inputs, run_main, write_addon, write_ngp
 
@@ -47,8 +48,12 @@ def base():
                           RenderSettings(spp=4), progress=False)
         p = Inputs(d2=d2, d3=d3, root=root)
         for name, ds, fmt in [("nerf2d", d2, "nerf2d"), ("blender", d3, "blender"), ("nerfstudio3", d3, "nerfstudio"),
-                              ("nerfstudio2", d2, "nerfstudio")]:
+                              ("nerfstudio2", d2, "nerfstudio"), ("llff", d3, "llff"), ("colmap", d3, "colmap"),
+                              ("idr", d3, "idr")]:
             p[name] = save_dataset(ds, root / name, fmt)
+        (root / "colmap_bin").mkdir()
+        write_colmap(d3, root / "colmap_bin", binary=True)
+        p["colmap_bin"] = root / "colmap_bin"
         write_addon(d2, root / "addon")
         p["addon"] = root / "addon"
         write_ngp(root / "blender", root / "ngp")

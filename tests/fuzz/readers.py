@@ -43,12 +43,13 @@ def check_reader(category: str, data, src: Path, damage, need_test: bool = False
     return line
 
 
-def image_damage(data, img: Path, shape: tuple, others_in_split: bool) -> tuple[str, callable]:
-    """A view that cannot be read, or one that does not fit the others: ``shape`` is (H, W)."""
+def image_damage(data, img: Path, shape: tuple, others_in_split: bool, may_go: bool = True) -> tuple[str, callable]:
+    """A view that cannot be read, or one that does not fit the others: ``shape`` is (H, W); ``may_go``: a
+    missing image is an error (not a frame that is skipped)."""
     kind = data.draw(st.sampled_from(["file", "other size", "too large"] if others_in_split
                                      else ["file", "too large"]), label="image damage")
     if kind == "file":
-        return draw_file_damage(data, img, "png")
+        return draw_file_damage(data, img, "png", may_go)
     if kind == "other size":
         H, W = shape
         if W == 1:

@@ -19,7 +19,9 @@ from .readers import check_reader, image_damage, meta_damage, NERF2D_COUNTS
 
 
 def header_damage(data, header: dict, W: int, H: int, has_fl: bool, has_angle: bool) -> tuple[str, str, object]:
-    """A camera header entry of a transforms.json that is wrong: returns (key, desc, value)."""
+    """A camera header entry of a transforms.json that is wrong: returns (key, desc, value). Off-centre
+    principal points on the image, non-square pixels and lens distortion that does not fold inside the image
+    are valid, so only their impossible values are drawn."""
     keys = ["camera_model", "distortion", "w", "h", "cx", "cy"]
     keys += ["fl_x", "fl_y"] if has_fl else []
     keys += ["camera_angle_x"] if has_angle else []
@@ -31,18 +33,19 @@ def header_damage(data, header: dict, W: int, H: int, has_fl: bool, has_angle: b
             st.booleans()), label="model")
     elif key == "distortion":
         key = data.draw(st.sampled_from(["k1", "k2", "k3", "k4", "p1", "p2"]), label="coefficient")
-        v = data.draw(st.one_of(away_from(0.0, 1e-6, 10.0), WRONG_TYPE, NON_FINITE), label=key)
+        folds = finite(-1e6, -5.0) if key in ("k1", "k2", "k3") else st.nothing()     # folds inside 8 x 8 views
+        v = data.draw(st.one_of(away_from(0.0, 1e-6, 10.0) if key == "k4" else folds, WRONG_TYPE, NON_FINITE),
+                      label=key)
     elif key in ("w", "h"):
         size = W if key == "w" else H
         v = data.draw(st.one_of(WRONG_TYPE, NON_FINITE, st.integers(-10, 10 ** 6).filter(lambda x: x != size),
                                 finite(-1e9, 1e9).filter(lambda x: x != size)), label=key)
     elif key in ("cx", "cy"):
-        c = (W if key == "cx" else H) / 2
-        v = data.draw(st.one_of(WRONG_TYPE, NON_FINITE, away_from(c, 0.6)), label=key)
+        size = W if key == "cx" else H
+        v = data.draw(st.one_of(WRONG_TYPE, NON_FINITE, finite(-1e6, -0.01), finite(size + 0.01, 1e6)), label=key)
     elif key in ("fl_x", "fl_y"):
-        f = header["fl_x"]
-        v = data.draw(st.one_of(WRONG_TYPE, NON_FINITE, finite(-1e300, 0.0), away_from(f, 0.01 * f, 1e300)),
-                      label=key)
+        v = data.draw(st.one_of(bad_focal(max(W, H) if key == "fl_x" else H, allow_null=False),
+                                st.sampled_from([[1.0], {"f": 1}])), label=key)
     else:
         a = header["camera_angle_x"]
         inconsistent = away_from(a, 0.01, 3.0).filter(lambda x: 0 < x < 3.14) if has_fl else st.nothing()
@@ -196,8 +199,9 @@ def test_nerfstudio_folders(base, data):
             return draw_frames_damage(data, tj, count_matters=False)
         if what == "frame":
             key = data.draw(st.sampled_from(["file_path", "depth_file_path", "mask_path"]), label="key")
+            nowhere = st.text(string.ascii_letters, min_size=1, max_size=8).map(lambda s: f"nope/{s}")
             v = data.draw(st.one_of(WRONG_TYPE_OR_NULL.filter(lambda v: not isinstance(v, str)), st.just(""),
-                                    st.text(string.ascii_letters, min_size=1, max_size=8).map(lambda s: f"nope/{s}")),
+                                    nowhere if key != "file_path" else st.nothing()),   # no image: skipped
                           label=key)
             if key == "file_path":      # keep the frame in its split's list
                 def fn():
@@ -207,7 +211,8 @@ def test_nerfstudio_folders(base, data):
             return f"frame {stem} {key} = {show(v)}", lambda: edit_json(
                 tj, lambda o: o["frames"][index].__setitem__(key, v))
         if what == "image":
-            desc, fn = image_damage(data, ds / "images" / f"{stem}.png", (H, W), others_in_split=counts[split] > 1)
+            desc, fn = image_damage(data, ds / "images" / f"{stem}.png", (H, W), others_in_split=counts[split] > 1,
+                                    may_go=False)           # a frame without its image is skipped
             return f"{stem}.png: {desc}", fn
         if what == "depth":
             desc, fn = array_file_damage(data, ds / "depths" / f"{stem}.npy", (H, W), "depth")
@@ -252,8 +257,8 @@ def test_nerfstudio_folders(base, data):
 @given(data=st.data())
 def test_instant_ngp_folders(base, data):
     """transforms.json of instant-ngp: camera_angle_x, file paths without extension, no split lists."""
-    what = data.draw(st.sampled_from(["json file", "angle", "no angle", "frames", "file_path", "image"]),
-                     label="what")
+    what = data.draw(st.sampled_from(["json file", "angle", "no angle", "frames", "file_path", "image",
+                                      "few images"]), label="what")
     i = data.draw(st.integers(0, 5), label="frame")
 
     def damage(ds: Path):
@@ -267,13 +272,15 @@ def test_instant_ngp_folders(base, data):
             return "no camera_angle_x", lambda: edit_json(tj, lambda o: o.pop("camera_angle_x"))
         if what == "frames":
             return draw_frames_damage(data, tj, count_matters=False)
-        if what == "file_path":
-            v = data.draw(st.one_of(WRONG_TYPE_OR_NULL.filter(lambda v: not isinstance(v, str)), st.just(""),
-                                    st.text(string.ascii_letters, min_size=1, max_size=8).map(lambda s: f"nope/{s}")),
+        if what == "file_path":              # (a path to no file is a frame without its image: skipped)
+            v = data.draw(st.one_of(WRONG_TYPE_OR_NULL.filter(lambda v: not isinstance(v, str)), st.just("")),
                           label="file_path")
             return f"frame {i} file_path = {show(v)}", lambda: edit_json(
                 tj, lambda o: o["frames"][i].__setitem__("file_path", v))
-        desc, fn = image_damage(data, ds / "images" / f"r_{i}.png", (8, 8), others_in_split=i > 0)
+        if what == "few images":           # 6 frames: 2 or fewer left give too few training views
+            gone = data.draw(st.integers(4, 6), label="images gone")
+            return f"{gone} of 6 images missing", lambda: [(ds / "images" / f"r_{k}.png").unlink() for k in range(gone)]
+        desc, fn = image_damage(data, ds / "images" / f"r_{i}.png", (8, 8), others_in_split=i > 0, may_go=False)
         return f"r_{i}.png: {desc}", fn
 
     check_reader("reader: instant-ngp transforms.json", data, base["ngp"], damage)

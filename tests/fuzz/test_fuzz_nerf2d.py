@@ -40,7 +40,8 @@ def test_valid_inputs_in_unicode_paths_with_spaces_work(base):
         assert rc == 0, err
     from mitnerf.data.formats import load_dataset
 
-    for name in ("nerf2d", "addon", "blender", "nerfstudio3", "nerfstudio2", "ngp", "tiny"):
+    for name in ("nerf2d", "addon", "blender", "nerfstudio3", "nerfstudio2", "ngp", "tiny", "llff", "colmap",
+                 "colmap_bin", "idr"):
         ds = load_dataset(base[name])
         assert {"train", "test"} <= set(ds.splits), name
 

@@ -1,5 +1,7 @@
 """Dataset file formats: NeRF2D (2D, ours and the original add-on's), Blender, nerfstudio and instant-ngp
-``transforms.json`` (3D; nerfstudio also 2D), tiny-NeRF (3D, one file). Every input is checked (:mod:`.common`).
+``transforms.json`` (3D; nerfstudio also 2D), tiny-NeRF (3D, one file), and real captures: LLFF, COLMAP (text
+or binary), IDR / NeuS. Every input is checked (:mod:`.common`, :mod:`.capture`); every reader takes an integer
+``downscale``.
 """
 
 from __future__ import annotations
@@ -14,12 +16,19 @@ from ..._io import Output, check_place, tidy, write_new_file
 from ...errors import DataError, OutputError
 from ..cameras import Cameras
 from ..dataset import SPLITS, Dataset, Split
+from .capture import check_downscale
+from .colmap import model_folder, read_colmap, write_colmap
 from .common import MAX_SIDE, check_focal, check_memory, check_poses, integer, npz_shapes, read_npz
+from .idr import camera_file, read_idr, write_idr
+from .llff import read_llff, write_llff
 from .nerf2d import read_nerf2d, write_nerf2d
 from .transforms import read_transforms, write_blender, write_nerfstudio
 
-WRITERS = {"nerf2d": write_nerf2d, "blender": write_blender, "nerfstudio": write_nerfstudio}
+WRITERS = {"nerf2d": write_nerf2d, "blender": write_blender, "nerfstudio": write_nerfstudio, "llff": write_llff,
+           "colmap": write_colmap, "idr": write_idr}
 FORMATS = (*WRITERS, "tiny_nerf")
+DIMS = {"nerf2d": (2,), "nerfstudio": (2, 3)}
+"""The dimensions a format holds where not 3D only."""
 
 
 def detect_format(path: str | Path) -> str:
@@ -38,14 +47,25 @@ def detect_format(path: str | Path) -> str:
         return "nerf2d"
     if "transforms_train.json" in names or "transforms.json" in names:
         return "transforms"
-    raise DataError(f"{path} is not a dataset folder: it has no train/transforms.json (NeRF2D) and no "
-                    "transforms_train.json or transforms.json (Blender/nerfstudio); "
+    if "poses_bounds.npy" in names:
+        return "llff"
+    if camera_file(path) is not None:
+        return "idr"
+    if model_folder(path) is not None:
+        return "colmap"
+    raise DataError(f"{path} is not a dataset folder: it has no train/transforms.json (NeRF2D), no "
+                    "transforms_train.json or transforms.json (Blender/nerfstudio/instant-ngp), no poses_bounds.npy "
+                    "(LLFF), no cameras_sphere.npz (IDR/NeuS) and no sparse/0/cameras.txt or .bin (COLMAP); "
                     "write one with `mitnerf dataset --out DIR`")
 
 
-def load_dataset(path: str | Path) -> Dataset:
-    """Read and check a dataset in any supported format; ``meta['path']`` records where from."""
-    ds = {"nerf2d": read_nerf2d, "transforms": read_transforms, "tiny_nerf": read_tiny_nerf}[detect_format(path)](path)
+def load_dataset(path: str | Path, downscale: int = 1) -> Dataset:
+    """Read and check a dataset in any supported format, its views box-filtered ``downscale`` times smaller (LLFF
+    and COLMAP: from ``images_N/`` where it exists); ``meta['path']`` records where from."""
+    fmt, downscale = detect_format(path), check_downscale(downscale)
+    read = {"nerf2d": read_nerf2d, "transforms": read_transforms, "tiny_nerf": read_tiny_nerf, "llff": read_llff,
+            "colmap": read_colmap, "idr": read_idr}[fmt]
+    ds = read(path, downscale=downscale)
     ds.meta["path"] = str(Path(path).resolve())
     return ds
 
@@ -80,7 +100,7 @@ def save_dataset(dataset: Dataset, out: str | Path, fmt: str | None = None, over
     return target.path
 
 
-def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dataset:
+def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0, downscale: int = 1) -> Dataset:
     """The classic ``tiny_nerf_data.npz``: ``images [N, H, W, 3]`` (sRGB floats), ``poses [N, 4, 4]`` (OpenGL
     cameras), ``focal`` (pixels); no depth or alpha. Splits follow the tiny-NeRF notebook: the first
     ``min(100, N - 2)`` frames train, the next one validates, the rest test (frame 101, the notebook's test view,
@@ -119,8 +139,11 @@ def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0) -> Dat
         raise DataError(f"{path}: 'images' contains NaN or infinity; replace the file")
     cuts = {"train": slice(0, n_train), "val": slice(n_train, n_train + n_val), "test": slice(n_train + n_val, None)}
     splits = {s: Split(Cameras(poses[c], focal, H, W), np.clip(img[c], 0, 1), np.ones(img[c].shape[:3], np.float32))
-              for s, c in cuts.items()}
-    return Dataset(splits, near, far, {"format": "tiny_nerf", "scene": path.stem, "background": [0.0] * 3})
+              .downscaled(check_downscale(downscale)) for s, c in cuts.items()}
+    meta = {"format": "tiny_nerf", "scene": path.stem, "background": [0.0] * 3}
+    if downscale > 1:
+        meta["downscale"] = downscale
+    return Dataset(splits, near, far, meta)
 
 
 def _count(data: dict, key: str, path: Path, lo: int, hi: int) -> int:
@@ -134,13 +157,17 @@ def tiny_nerf_bytes(dataset: Dataset) -> bytes:
     if dataset.dim != 3:
         raise DataError("tiny-NeRF files hold 3D datasets only")
     order = [dataset[s] for s in SPLITS]
+    cams = Cameras.concatenate([s.cameras for s in order])
+    if not cams.simple:
+        raise DataError("tiny-NeRF files hold one focal length, square pixels, centred principal points and no lens "
+                        "distortion; use --format colmap or nerfstudio")
     images = np.concatenate([s.target(dataset.background) for s in order]).astype(np.float32)
-    poses = np.concatenate([s.cameras.poses for s in order]).astype(np.float32)
     buf = io.BytesIO()
-    np.savez(buf, images=images, poses=poses, focal=np.float32(order[0].cameras.focal),
+    np.savez(buf, images=images, poses=cams.poses.astype(np.float32), focal=np.float32(cams.focal),
              n_train=len(order[0]), n_val=len(order[1]))
     return buf.getvalue()
 
 
-__all__ = ["FORMATS", "check_output", "load_dataset", "save_dataset", "detect_format", "read_nerf2d", "write_nerf2d",
-           "read_transforms", "write_blender", "write_nerfstudio", "read_tiny_nerf", "tiny_nerf_bytes"]
+__all__ = ["FORMATS", "DIMS", "check_output", "load_dataset", "save_dataset", "detect_format", "read_nerf2d",
+           "write_nerf2d", "read_transforms", "write_blender", "write_nerfstudio", "read_tiny_nerf", "tiny_nerf_bytes",
+           "read_llff", "write_llff", "read_colmap", "write_colmap", "read_idr", "write_idr"]

@@ -205,15 +205,24 @@ def as_rgba(img: np.ndarray) -> np.ndarray:
     return np.concatenate([rgb, alpha], -1).astype(np.float32)
 
 
-def read_npz(path: Path, where: str | None = None) -> dict[str, np.ndarray]:
-    """Every array of an ``.npz`` file, never unpickled."""
+def read_npz(path: Path, where: str | None = None, keys: list[str] | None = None) -> dict[str, np.ndarray]:
+    """The arrays ``keys`` (all if None) of an ``.npz`` file, never unpickled."""
     try:
         with np.load(path, allow_pickle=False) as z:
-            return {k: np.asarray(z[k]) for k in z.files}
+            return {k: np.asarray(z[k]) for k in (z.files if keys is None else keys)}
     except FileNotFoundError:
         raise DataError(f"{path} is missing; restore it or drop the frame") from None
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
         raise DataError(f"{where or path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+
+
+def _array_header(f) -> tuple[tuple, np.dtype]:
+    version = np.lib.format.read_magic(f)
+    read = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+    if version not in read:
+        raise ValueError(f"npy format {version}")
+    shape, _, dtype = read[version](f)
+    return shape, dtype
 
 
 def npz_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
@@ -224,12 +233,7 @@ def npz_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
             out = {}
             for info in (i for i in z.infolist() if i.filename.endswith(".npy")):
                 with z.open(info) as f:
-                    version = np.lib.format.read_magic(f)
-                    read = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
-                    if version not in read:
-                        raise ValueError(f"npy format {version}")
-                    shape, _, dtype = read[version](f)
-                out[info.filename[:-4]] = (shape, dtype)
+                    out[info.filename[:-4]] = _array_header(f)
             return out
     except FileNotFoundError:
         raise DataError(f"{path} is missing; restore it or drop the frame") from None
@@ -237,8 +241,20 @@ def npz_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
         raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
 
 
-def read_npy(path: Path, shape: tuple, where: str) -> np.ndarray:
-    """A float array of ``shape`` from an ``.npy`` file, never unpickled."""
+def npy_shape(path: Path) -> tuple[tuple, np.dtype]:
+    """``(shape, dtype)`` of an ``.npy`` file from its header alone (a file that claims a huge array is refused
+    before it fills memory)."""
+    try:
+        with open(path, "rb") as f:
+            return _array_header(f)
+    except FileNotFoundError:
+        raise DataError(f"{path} is missing; restore it") from None
+    except (OSError, ValueError, EOFError, SyntaxError, TypeError) as exc:
+        raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+
+
+def read_npy(path: Path, shape: tuple, where: str, dtype=np.float32) -> np.ndarray:
+    """A float array of ``shape`` (as ``dtype``) from an ``.npy`` file, never unpickled."""
     try:
         a = np.load(path, allow_pickle=False)
     except FileNotFoundError:
@@ -248,7 +264,7 @@ def read_npy(path: Path, shape: tuple, where: str) -> np.ndarray:
     if not isinstance(a, np.ndarray) or a.dtype.kind not in "uif" or a.size != int(np.prod(shape)):
         raise DataError(f"{where}: {path.name} holds {getattr(a, 'shape', '?')} {getattr(a, 'dtype', '')} values, "
                         f"expected {shape} numbers; regenerate the file")
-    a = a.astype(np.float32).reshape(shape)
+    a = a.astype(dtype).reshape(shape)
     if not np.isfinite(a).all():
         raise DataError(f"{where}: {path.name} contains NaN or infinity; regenerate the file")
     return a
@@ -263,8 +279,12 @@ def check_memory(n_pixels: int, where: str) -> None:
                         f"this machine has {avail / 2**30:.1f} GiB free: use fewer or smaller views")
 
 
+CAPTURE_KEYS = ("path", "bounds", "points_bounds", "scale_mat")
+"""What a reader records about the files it read, which a written dataset's files replace."""
+
+
 def write_meta(folder: Path, dataset, fmt: str) -> None:
-    meta = {k: v for k, v in dataset.meta.items() if k != "path"}
+    meta = {k: v for k, v in dataset.meta.items() if k not in CAPTURE_KEYS}
     meta.update(format=fmt, near=dataset.near, far=dataset.far, splits={k: len(v) for k, v in dataset.splits.items()})
     (folder / META).write_text(json.dumps(meta, indent=1))
 

@@ -21,6 +21,7 @@ from ...errors import DataError
 from ..cameras import Cameras
 from ..color import display_color, to_uint8
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
+from .capture import check_downscale
 from .common import (as_rgba, check_focal, check_memory, get, image_size, read_image, read_poses,
                      read_json, read_meta, read_npz, write_meta)
 
@@ -31,13 +32,16 @@ def write_nerf2d(dataset: Dataset, folder: Path) -> None:
 
     if dataset.dim != 2:
         raise DataError("the NeRF2D format holds 2D datasets only; use --format blender or nerfstudio for 3D")
+    if not all(s.cameras.simple for s in dataset.splits.values()):
+        raise DataError("the NeRF2D format holds one focal length per split and centred views; use --format nerfstudio")
     for name, split in dataset.splits.items():
         d = folder / name
         d.mkdir()
         cams = split.cameras
         frames = [{"transform_matrix": p.tolist()} for p in cams.poses]
-        (d / "transforms.json").write_text(json.dumps({"focal": cams.focal, "frames": frames}, indent=1))
-        K = np.array([[cams.focal, 0, 0], [0, cams.focal, (cams.height - 1) / 2], [0, 0, 1]])
+        f = (cams if len(cams) else dataset["train"].cameras).focal
+        (d / "transforms.json").write_text(json.dumps({"focal": f, "frames": frames}, indent=1))
+        K = np.array([[f, 0, 0], [0, f, (cams.height - 1) / 2], [0, 0, 1]])
         depth = (None if split.depth is None                   # -1 on a miss
                  else np.where(np.isfinite(split.depth), split.depth, -1.0).astype(np.float32))
         for i in range(len(split)):
@@ -111,9 +115,10 @@ def _read_split(d: Path) -> Split:
     return Split(Cameras(poses, focal, H, 1), color.astype(np.float32), alpha.astype(np.float32), depth, mask, linear)
 
 
-def read_nerf2d(path: str | Path) -> Dataset:
-    """Read a NeRF2D-format folder (ours or the original add-on's)."""
-    path = Path(path)
+def read_nerf2d(path: str | Path, downscale: int = 1) -> Dataset:
+    """Read a NeRF2D-format folder (ours or the original add-on's), its views ``downscale`` times shorter
+    (:meth:`~mitnerf.data.dataset.Split.downscaled`)."""
+    path, downscale = Path(path), check_downscale(downscale)
     splits = {s: _read_split(path / s) for s in SPLITS if (path / s / "transforms.json").exists()}
     if "train" not in splits:
         raise DataError(f"{path} has no train/transforms.json; point at a NeRF2D dataset folder")
@@ -125,4 +130,6 @@ def read_nerf2d(path: str | Path) -> Dataset:
         near, far = ((max(0.05, depths.min() - 0.5), depths.max() + 1.0) if depths.size
                      else bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0))
     meta.setdefault("format", "nerf2d")
-    return Dataset(splits, float(near), float(far), meta)
+    if downscale > 1:
+        meta["downscale"] = downscale
+    return Dataset({s: v.downscaled(downscale) for s, v in splits.items()}, float(near), float(far), meta)

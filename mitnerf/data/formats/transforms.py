@@ -23,9 +23,13 @@ world unit (its default ``depth_unit_scale_factor`` 1e-3), 0 on a miss. Masks ar
 pixel-centre ray hits the object. A 2D dataset is written as ``H x 1`` images of cameras in the z = 0 plane
 (``"mitnerf_dim": 2``) and read back as 2D.
 
-**Reading** these or anyone's instant-ngp / nerfstudio folder: intrinsics shared or per frame (equal within a
-split), square pixels, the principal point at the image centre, no lens distortion. Splits come from
-``*_filenames`` lists when present, else every 8th frame is held out for test.
+**Reading** these or anyone's instant-ngp / nerfstudio folder: intrinsics (``fl_x``, ``fl_y`` or
+``camera_angle_x``/``_y``, ``cx``, ``cy``, ``w``, ``h``) and lens coefficients (``k1``, ``k2``, ``k3``, ``p1``,
+``p2``: nerfstudio's ``OPENCV``, ``RADIAL``, ``SIMPLE_RADIAL``; instant-ngp's bare coefficients) in the header or
+per frame, one image size. Splits come from ``*_filenames`` lists when present, else every 8th frame is held
+out for test (no validation split). In a ``transforms.json`` folder, frames whose image file is absent are
+skipped with one warning line (instant-ngp's fox lists 67 frames and ships 50); too few left is refused.
+Writers put the intrinsics every frame shares in the header and the others in each frame.
 """
 
 from __future__ import annotations
@@ -38,12 +42,12 @@ import numpy as np
 from ...errors import DataError
 from ..cameras import Cameras
 from ..color import display_color, to_uint8
-from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
-from .common import (as_rgba, check_focal, check_memory, get, image_size, number, read_image, read_poses,
-                     read_json, read_meta, read_npy, write_meta)
+from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras, box_downscale
+from ..lens import COEFFICIENTS, MODELS
+from .capture import absent, check_downscale, check_intrinsics, check_lens, read_views, warn_skipped
+from .common import (as_rgba, check_focal, check_memory, get, image_size, number, read_image, read_poses, read_json,
+                     read_meta, read_npy, write_meta)
 
-PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE", "OPENCV", "RADIAL", "SIMPLE_RADIAL")
-DISTORTION = ("k1", "k2", "k3", "k4", "p1", "p2")
 NS_DEPTH_UNIT = 1e-3
 
 
@@ -73,10 +77,23 @@ def write_blender(dataset: Dataset, folder: Path) -> None:
                 np.save(folder / f"{stem}_linear.npy", np.concatenate([split.linear[i], split.alpha[i][..., None]], -1)
                         .astype(np.float32))
             frames.append(frame)
-        header = {"camera_angle_x": float(np.radians(c.fov)), "fl_x": c.focal, "fl_y": c.focal,
-                  "cx": c.width / 2, "cy": c.height / 2, "w": c.width, "h": c.height, "frames": frames}
+        header, own = camera_keys(c)
+        if "fl_x" in header:
+            header["camera_angle_x"] = float(2 * np.arctan(0.5 * c.width / header["fl_x"]))
+        header["frames"] = [{**own[i], **f} for i, f in enumerate(frames)]
         (folder / f"transforms_{name}.json").write_text(json.dumps(header, indent=1))
     write_meta(folder, dataset, "blender")
+
+
+def camera_keys(c: Cameras) -> tuple[dict, list[dict]]:
+    """The ``transforms.json`` keys of cameras: those every frame shares (for the header) and each frame's own."""
+    values = {"fl_x": c.fx, "fl_y": c.fy, "cx": c.cx, "cy": c.cy}
+    if c.distortion is not None:
+        values.update({name: c.distortion[:, j] for j, name in enumerate(COEFFICIENTS)})
+    shared = {k: float(v[0]) for k, v in values.items() if len(v) and np.all(v == v[0])}
+    own = [{k: float(v[i]) for k, v in values.items() if k not in shared} for i in range(len(c))]
+    return {"camera_model": "PINHOLE" if c.distortion is None else "OPENCV", **shared, "w": c.width,
+            "h": c.height}, own
 
 
 def pose_2d_to_3d(P: np.ndarray) -> np.ndarray:
@@ -100,15 +117,14 @@ def write_nerfstudio(dataset: Dataset, folder: Path) -> None:
 
     for sub in ("images", "depths", "masks"):
         (folder / sub).mkdir()
-    c0 = dataset["train"].cameras
-    W, H = c0.width, c0.height
-    header = {"camera_model": "PINHOLE", "fl_x": c0.focal, "fl_y": c0.focal, "cx": W / 2, "cy": H / 2, "w": W,
-              "h": H, "orientation_override": "none", "mitnerf_dim": dataset.dim,
-              "mitnerf_depth": {"kind": "z", "unit": NS_DEPTH_UNIT}, "frames": []}
+    cams = [s.cameras for s in dataset.splits.values()]
+    if len({(c.height, c.width) for c in cams}) != 1:
+        raise DataError("the nerfstudio format needs one image size for all splits; use --format blender")
+    header, own = camera_keys(Cameras.concatenate(cams))
+    header.update(orientation_override="none", mitnerf_dim=dataset.dim,
+                  mitnerf_depth={"kind": "z", "unit": NS_DEPTH_UNIT}, frames=[])
     for name, split in dataset.splits.items():
         c = split.cameras
-        if (c.focal, c.height, c.width) != (c0.focal, H, W):
-            raise DataError("the nerfstudio format needs one camera model for all splits; use --format blender")
         poses = pose_2d_to_3d(c.poses) if dataset.dim == 2 else c.poses
         zdepth = None
         if split.depth is not None:        # distance along the ray -> along the optical axis
@@ -118,7 +134,8 @@ def write_nerfstudio(dataset: Dataset, folder: Path) -> None:
         for i in range(len(split)):
             stem = f"{name}_{i:04d}"
             iio.imwrite(folder / "images" / f"{stem}.png", to_uint8(_straight(split, i)))
-            frame = {"file_path": f"images/{stem}.png", "transform_matrix": poses[i].tolist()}
+            frame = {"file_path": f"images/{stem}.png", "transform_matrix": poses[i].tolist(),
+                     **own[len(header["frames"])]}
             if zdepth is not None:
                 np.save(folder / "depths" / f"{stem}.npy", zdepth[i].astype(np.float32))
                 frame["depth_file_path"] = f"depths/{stem}.npy"
@@ -134,44 +151,56 @@ def write_nerfstudio(dataset: Dataset, folder: Path) -> None:
     write_meta(folder, dataset, "nerfstudio")
 
 
-def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int) -> float:
-    """The one focal length of a split's frames (checked: shared, square pixels, centred, no distortion)."""
+def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int) -> dict:
+    """Every frame's ``fx, fy, cx, cy`` ``[n]`` and lens ``distortion`` ``[n, 5]`` (a frame's own value, else the
+    header's), checked, as :class:`Cameras` arguments."""
     model = header.get("camera_model", "PINHOLE")
-    if not isinstance(model, str) or model.upper() not in PINHOLE_MODELS:
-        raise DataError(f"{where}: camera model {model!r} is not a pinhole camera; mitnerf reads pinhole cameras "
-                        "only: undistort the images first")
-    values = []
-    for i, f in enumerate(frames):      # a frame's own value, else the header's
-        v = {k: f.get(k, header.get(k)) for k in (*DISTORTION, "camera_angle_x", "fl_x", "fl_y", "w", "h", "cx", "cy")}
-        for k in DISTORTION:
-            if v[k] is not None and number(v[k], f"{where}: {k}", strict_lo=False) != 0:
-                raise DataError(f"{where}: frame {i} has lens distortion ({k} = {v[k]}); mitnerf reads pinhole "
-                                "cameras only: undistort the images first")
-        ang = None if v["camera_angle_x"] is None else number(v["camera_angle_x"], f"{where}: camera_angle_x", 0, 3.14)
-        if v["fl_x"] is not None:
-            fx = number(v["fl_x"], f"{where}: fl_x")
-            fy = number(v["fl_y"] if v["fl_y"] is not None else fx, f"{where}: fl_y")
-            if ang is not None and abs(2 * np.arctan(0.5 * W / fx) - ang) > 1e-3 * ang:
-                # the original NeRF and nerfstudio's Blender loader read camera_angle_x, instant-ngp fl_x
-                raise DataError(f"{where}: camera_angle_x = {ang:g} rad and fl_x = {fx:g} px disagree for images "
-                                f"{W} px wide (fl_x gives {2 * np.arctan(0.5 * W / fx):.6g} rad); fix or remove one")
-        elif ang is not None:
-            fx = fy = 0.5 * W / np.tan(0.5 * ang)
-        else:
-            raise DataError(f"{where} gives neither 'fl_x' nor 'camera_angle_x'; add the focal length")
-        if abs(fx - fy) > 1e-3 * fx:
-            raise DataError(f"{where}: fl_x = {fx:g} and fl_y = {fy:g} differ; mitnerf needs square pixels")
+    if not isinstance(model, str) or model.upper() not in MODELS:
+        raise DataError(f"{where}: camera model {json.dumps(model)[:40]} is not a pinhole camera; mitnerf reads "
+                        f"{', '.join(MODELS)}: undistort the images to one of them first")
+    out = {k: np.empty(len(frames)) for k in ("fx", "fy", "cx", "cy")}
+    out["distortion"] = np.zeros((len(frames), 5))
+    for i, f in enumerate(frames):
+        v = {k: f.get(k, header.get(k)) for k in (*COEFFICIENTS, "k4", "camera_angle_x", "camera_angle_y", "fl_x",
+                                                 "fl_y", "w", "h", "cx", "cy")}
+        for j, k in enumerate(COEFFICIENTS):
+            out["distortion"][i, j] = 0.0 if v[k] is None else number(v[k], f"{where}: {k}", strict_lo=False)
+        if v["k4"] is not None and number(v["k4"], f"{where}: k4", strict_lo=False) != 0:
+            raise DataError(f"{where}: frame {i} has k4 = {v['k4']}, which mitnerf's lens model lacks (it has k1, k2, "
+                            "k3, p1, p2); undistort the images first")
+        focal = []
+        for axis, size in (("x", W), ("y", H)):
+            ang, fl = v[f"camera_angle_{axis}"], v[f"fl_{axis}"]
+            ang = None if ang is None else number(ang, f"{where}: camera_angle_{axis}", 0, 3.14)
+            if fl is not None:
+                fl = number(fl, f"{where}: fl_{axis}")
+                if ang is not None and abs(2 * np.arctan(0.5 * size / fl) - ang) > 1e-3 * ang:
+                    # the original NeRF and nerfstudio's Blender loader read camera_angle_x, instant-ngp fl_x
+                    raise DataError(f"{where}: camera_angle_{axis} = {ang:g} rad and fl_{axis} = {fl:g} px disagree "
+                                    f"for images {size} px {'wide' if axis == 'x' else 'tall'} (fl_{axis} gives "
+                                    f"{2 * np.arctan(0.5 * size / fl):.6g} rad); fix or remove one")
+            elif ang is not None:
+                fl = 0.5 * size / np.tan(0.5 * ang)
+            elif axis == "x":
+                raise DataError(f"{where} gives neither 'fl_x' nor 'camera_angle_x'; add the focal length")
+            focal.append(fl)
+        out["fx"][i], out["fy"][i] = focal[0], focal[1] if focal[1] is not None else focal[0]
         for key, size in (("w", W), ("h", H)):
             if v[key] is not None and number(v[key], f"{where}: {key}", strict_lo=False) != size:
                 raise DataError(f"{where}: {key} = {v[key]} but the images are {W} x {H}; fix the header")
-        for key, centre in (("cx", W / 2), ("cy", H / 2)):
-            if v[key] is not None and abs(number(v[key], f"{where}: {key}", strict_lo=False) - centre) > 0.51:
-                raise DataError(f"{where}: principal point {key} = {v[key]} is off-centre; mitnerf's cameras need "
-                                "cx = w/2 and cy = h/2 (crop or re-render)")
-        values.append(fx)
-    if max(values) - min(values) > 1e-3 * max(values):
-        raise DataError(f"{where}: frames have different focal lengths; mitnerf needs one camera per split")
-    return check_focal(values[0], H if dim == 2 else W, where)
+        for key, size in (("cx", W), ("cy", H)):
+            out[key][i] = size / 2 if v[key] is None else number(v[key], f"{where}: {key}", strict_lo=False)
+    if dim == 3:
+        check_intrinsics(out["fx"], out["fy"], out["cx"], out["cy"], W, H, where)
+        return out
+    if out["distortion"].any() or np.abs(out["fy"] - out["fx"]).max() > 1e-3 * out["fx"].max():
+        raise DataError(f"{where}: 2D views have one focal length and no lens distortion; fix the header")
+    for f, cx, cy in zip(out["fx"], out["cx"], out["cy"]):
+        check_focal(f, H, where)
+        if not (0 <= cx <= W and 0 <= cy <= H):
+            raise DataError(f"{where}: the principal point ({cx:g}, {cy:g}) lies off the {W} x {H} px view; fix "
+                            "the header")
+    return {"fx": out["fx"], "cy": out["cy"]}
 
 
 def _plane(img: np.ndarray, H: int, W: int, path: Path) -> np.ndarray:
@@ -191,26 +220,31 @@ def _path(root: Path, value, where: str, suffix: str = ".png") -> Path:
     return p if p.suffix else p.with_suffix(suffix)
 
 
-def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit: float | None, dim: int) -> Split:
-    """One split's views; nerfstudio's z-depths come in ``depth_unit``s (None: Blender's distances)."""
+def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit: float | None, dim: int,
+                 downscale: int) -> Split:
+    """One split's views; nerfstudio's z-depths come in ``depth_unit``s (None: Blender's distances). With
+    ``downscale`` > 1 the views, masks and linear colours are box-filtered and depth maps left out (a block of
+    pixels has no one depth along its centre ray)."""
     if not frames:
         raise DataError(f"{where} lists no frames; add frames or drop the split")
     poses = read_poses(frames, 4, where)
     paths = [_path(root, f.get("file_path"), where) for f in frames]
     sizes = {image_size(p) for p in paths}
     if len(sizes) != 1:
-        raise DataError(f"{where}: images differ in size {sorted(sizes)}; all frames need one resolution")
+        raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all frames need one resolution")
     H, W = sizes.pop()
     if dim == 2 and W != 1:
         raise DataError(f"{where}: a 2D dataset has views one pixel wide, these are {W} wide")
-    check_memory(len(frames) * H * W, where)
-    focal = _intrinsics(header, frames, where, W, H, dim)
-    img = np.stack([as_rgba(read_image(p)) for p in paths])
-    a = img[..., 3]
-    color = img[..., :3] * a[..., None]
-    cams = Cameras(pose_3d_to_2d(poses) if dim == 2 else poses, focal, H, W)
+    check_memory(len(frames) * (H // downscale) * (W if dim == 2 else W // downscale), where)
+    cams = Cameras(pose_3d_to_2d(poses) if dim == 2 else poses, height=H, width=W,
+                   **_intrinsics(header, frames, where, W, H, dim))
+    check_lens(cams, where)
+    color, a = read_views(paths, downscale, where)
+    full, cols = (H, W), 1 if dim == 2 else downscale
+    cams = cams.downscaled(downscale) if downscale > 1 else cams
+    H, W = cams.height, cams.width
     depth = mask = linear = None
-    if all("depth_file_path" in f for f in frames):          # every frame is a dict (read_poses() checked)
+    if downscale == 1 and all("depth_file_path" in f for f in frames):          # every frame is a dict
         raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy" else _plane(read_image(p), H, W, p)
                         for p in (_path(root, f["depth_file_path"], where, ".npy") for f in frames)])
         if not np.isfinite(raw).all() or (raw < 0).any():
@@ -221,15 +255,16 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
         depth = np.where(raw > 0, raw, np.inf).astype(np.float32)
         mask = np.isfinite(depth)
     if all("mask_path" in f for f in frames):
-        mask = np.stack([_plane(as_rgba(read_image(p))[..., 0], H, W, p) > 0.5
+        mask = np.stack([_plane(as_rgba(read_image(p))[..., 0], *full, p)
                          for p in (_path(root, f["mask_path"], where) for f in frames)])
+        mask = box_downscale(mask, downscale, cols) > 0.5
     lpaths = [p.with_name(p.stem + "_linear.npy") for p in paths]
     have = [p.exists() for p in lpaths]
     if any(have) and not all(have):
         raise DataError(f"{where}: {lpaths[have.index(False)]} is missing while other frames have their "
                         "_linear.npy; restore it (or delete them all)")
     if all(have):
-        lin = np.stack([read_npy(p, (H, W, 4), where) for p in lpaths])
+        lin = box_downscale(np.stack([read_npy(p, (*full, 4), where) for p in lpaths]), downscale, cols)
         linear, a = lin[..., :3], lin[..., 3]
         if a.min() < 0 or a.max() > 1:
             raise DataError(f"{where}: a _linear.npy file holds alpha outside [0, 1]; regenerate the dataset")
@@ -237,48 +272,68 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
     return Split(cams, color.astype(np.float32), a.astype(np.float32), depth, mask, linear)
 
 
-def read_transforms(path: str | Path) -> Dataset:
-    """Read a Blender, nerfstudio or instant-ngp ``transforms.json`` folder."""
-    path = Path(path)
-    splits = {}
+def _pick(path: Path, header: dict, where: str) -> tuple[dict[str, list], list[str], int]:
+    """The frames of each split of a ``transforms.json`` whose images exist, the skipped frames' paths and the
+    number of frames listed."""
+    frames = get(header, "frames", list, where)
+    for i, f in enumerate(frames):
+        if not isinstance(f, dict):
+            raise DataError(f"{where}: frame {i} must be an object with 'file_path' and 'transform_matrix'")
+        _path(path, f.get("file_path"), f"{where}: frame {i}")          # a non-empty string
+    lists = {s: get(header, f"{s}_filenames", list, where, None) or [] for s in SPLITS}
+    names = {f["file_path"] for f in frames}
+    for s, v in lists.items():
+        for name in v:
+            if not (isinstance(name, str) and name in names):   # nerfstudio refuses these too
+                raise DataError(f"{where}: {s}_filenames lists {json.dumps(name)[:60]}, the file_path of no "
+                                "frame; fix the list or add the frame")
+    gone = absent([_path(path, f["file_path"], where) for f in frames])
+    skipped = [frames[i]["file_path"] for i in gone]
+    frames = [f for i, f in enumerate(frames) if i not in set(gone)]
+    pick = ({s: [f for f in frames if f["file_path"] in set(v)] for s, v in lists.items()} if any(lists.values())
+            else {"train": [f for i, f in enumerate(frames) if i % 8], "test": frames[::8]})
+    if skipped and (len(pick["train"]) < 2 or not pick["test"]):
+        raise DataError(f"{where}: {len(skipped)} of {len(frames) + len(skipped)} frames have no image file (the "
+                        f"first: {skipped[0]}), which leaves {len(pick['train'])} training and {len(pick['test'])} "
+                        "test views (at least 2 and 1 needed); restore the images")
+    return pick, skipped, len(frames) + len(skipped)
+
+
+def read_transforms(path: str | Path, downscale: int = 1) -> Dataset:
+    """Read a Blender, nerfstudio or instant-ngp ``transforms.json`` folder, its views box-filtered by ``downscale``
+    (depth maps are then left out)."""
+    path, downscale = Path(path), check_downscale(downscale)
+    splits, skipped, listed = {}, [], 0
     if (path / "transforms_train.json").exists():
         fmt = "blender"
         for s in SPLITS:
             f = path / f"transforms_{s}.json"
             if f.exists():
                 header = read_json(f)
-                splits[s] = _read_frames(path, header, get(header, "frames", list, str(f)), str(f), None, 3)
+                splits[s] = _read_frames(path, header, get(header, "frames", list, str(f)), str(f), None, 3, downscale)
     elif (path / "transforms.json").exists():
         fmt, where = "nerfstudio", str(path / "transforms.json")
         header = read_json(path / "transforms.json")
-        frames = get(header, "frames", list, where)
         dim = header.get("mitnerf_dim", 3)
         if dim not in (2, 3):
             raise DataError(f"{where}: 'mitnerf_dim' must be 2 or 3; fix or remove it")
-        for i, f in enumerate(frames):
-            if not isinstance(f, dict):
-                raise DataError(f"{where}: frame {i} must be an object with 'file_path' and 'transform_matrix'")
-            _path(path, f.get("file_path"), f"{where}: frame {i}")          # a non-empty string
-        lists = {s: get(header, f"{s}_filenames", list, where, None) or [] for s in SPLITS}
-        names = {f["file_path"] for f in frames}
-        for s, v in lists.items():
-            for name in v:
-                if not (isinstance(name, str) and name in names):   # nerfstudio refuses these too
-                    raise DataError(f"{where}: {s}_filenames lists {json.dumps(name)[:60]}, the file_path of no "
-                                    "frame; fix the list or add the frame")
-        pick = ({s: [f for f in frames if f["file_path"] in set(v)] for s, v in lists.items()} if any(lists.values())
-                else {"train": [f for i, f in enumerate(frames) if i % 8], "test": frames[::8]})
+        pick, skipped, listed = _pick(path, header, where)
         unit = header.get("mitnerf_depth", {"kind": "z", "unit": NS_DEPTH_UNIT})
         if not (isinstance(unit, dict) and unit.get("kind") == "z"):
             raise DataError(f"{where}: 'mitnerf_depth' must be {{'kind': 'z', 'unit': 0.001}}; fix or remove it")
-        unit = number(unit.get("unit"), f"{where}: mitnerf_depth unit")
-        splits = {s: _read_frames(path, header, fr, f"{where} ({s})", unit, dim) for s, fr in pick.items() if fr}
+        unit = number(unit.get("unit"), f"{where}: mitnerf_depth unit", 0)
+        splits = {s: _read_frames(path, header, fr, f"{where} ({s})", unit, dim, downscale)
+                  for s, fr in pick.items() if fr}
     if "train" not in splits:
         raise DataError(f"{path} has neither transforms_train.json nor transforms.json with training frames; "
                         "point at a Blender/nerfstudio dataset folder")
     meta = read_meta(path)
     meta.setdefault("format", fmt)
+    if downscale > 1:
+        meta["downscale"] = downscale
     near, far = meta.get("near"), meta.get("far")
     if near is None or far is None:       # Blender scenes: 2..6 at radius 4
         near, far = bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0)
+    if skipped:
+        warn_skipped(str(path / "transforms.json"), skipped, listed)
     return Dataset(splits, float(near), float(far), meta)

@@ -1,0 +1,177 @@
+"""What the readers of real captures share (LLFF, COLMAP, instant-ngp / nerfstudio, IDR): checked intrinsics and
+lenses, the held-out test views, frames without images, and views read at a lower resolution.
+
+Every check ends in one :class:`~mitnerf.errors.DataError` line (:mod:`.common`'s rules)."""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import ConfigError, DataError, MitnerfError
+from ..cameras import Cameras
+from ..dataset import Split, box_downscale
+from ..lens import COEFFICIENTS, fold_radius, jacobian, undistort
+from .common import as_rgba, check_focal, check_memory, image_size, number, read_image
+
+HOLDOUT = 8
+"""Where a capture names no split, image ``i`` is a test view when ``i % 8 == 0`` (NeRF's LLFF protocol) and
+a training view otherwise; there is no validation split (the trainer then validates on nothing, never on test)."""
+MAX_VIEWS = 100_000
+"""Most views a camera file may describe (a larger count is a corrupt header)."""
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+FORWARD_CONE = 30.0
+"""Degrees: a capture whose every view axis lies this close to their mean is forward-facing (``meta['layout']``)."""
+
+
+def check_downscale(downscale) -> int:
+    if isinstance(downscale, bool) or not isinstance(downscale, (int, np.integer)) or downscale < 1:
+        raise ConfigError(f"downscale must be a whole number >= 1, got {downscale!r}")
+    return int(downscale)
+
+
+def hold_out(n: int, where: str) -> dict[str, np.ndarray]:
+    """Indices of the train and test views of ``n`` images (:data:`HOLDOUT`); at least 2 train and 1 test."""
+    index = np.arange(n)
+    if n < 3:
+        raise DataError(f"{where} has {n} usable image{'s' * (n != 1)}; mitnerf needs at least 3 (2 to train on, "
+                        "every 8th held out for test): add images")
+    return {"train": index[index % HOLDOUT != 0], "test": index[index % HOLDOUT == 0]}
+
+
+def check_intrinsics(fx, fy, cx, cy, W: int, H: int, where: str) -> None:
+    """Per-frame focal lengths (a field of view in (0.05, 179) degrees along each axis) and a principal point on
+    the image (``0 <= cx <= W``, ``0 <= cy <= H``), all ``[n]`` arrays or numbers."""
+    for i, (a, b, c, d) in enumerate(np.broadcast(fx, fy, cx, cy)):
+        check_focal(a, W, f"{where} (frame {i}, fx)")
+        check_focal(b, H, f"{where} (frame {i}, fy)")
+        for name, v, size in (("cx", c, W), ("cy", d, H)):
+            if not 0 <= number(v, f"{where}: {name}", strict_lo=False) <= size:
+                raise DataError(f"{where}: frame {i}'s principal point {name} = {v:g} lies off the image (0 to {size} "
+                                "px); check its unit (pixels) and that it belongs to this image size")
+
+
+def check_lens(cameras: Cameras, where: str) -> None:
+    """Refuse a lens that folds over inside the image (two image points, one pixel) or whose formula cannot be
+    inverted at the image's edge pixels."""
+    if cameras.distortion is None:
+        return
+    H, W = cameras.height, cameras.width
+    unique, first = np.unique(cameras.intrinsics, axis=0, return_index=True)
+    for p, i in zip(unique, first):
+        fx, fy, cx, cy, k = p[0], p[1], p[2], p[3], p[4:]
+        named = ", ".join(f"{n} = {v:g}" for n, v in zip(COEFFICIENTS, k) if v)
+        corners = np.array([[(u - cx) / fx, (v - cy) / fy] for u in (0, W) for v in (0, H)])
+        r = fold_radius(k)
+        reach = r * (1 + r * r * (k[0] + r * r * (k[1] + r * r * k[4]))) if np.isfinite(r) else np.inf
+        if np.linalg.norm(corners, axis=1).max() >= reach:
+            raise DataError(f"{where}: frame {i}'s lens distortion ({named}) folds over inside the image (beyond "
+                            f"{reach:.3g} focal lengths from the principal point); check the coefficients and that "
+                            "they belong to these focal lengths")
+        u, v = np.arange(W) + 0.5, np.arange(H) + 0.5
+        edge = np.concatenate([np.c_[u, np.full(W, 0.5)], np.c_[u, np.full(W, H - 0.5)],
+                               np.c_[np.full(H, 0.5), v], np.c_[np.full(H, W - 0.5), v]])
+        try:
+            xy = undistort((edge - [cx, cy]) / [fx, fy], k, 1e-9 / max(fx, fy))
+        except MitnerfError:
+            xy = None
+        J = None if xy is None else jacobian(xy, k)
+        if J is None or not np.all(J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0] > 0):
+            raise DataError(f"{where}: frame {i}'s lens distortion ({named}) cannot be inverted at the image's edge; "
+                            "check the coefficients and that they belong to these focal lengths")
+
+
+def image_folder(root: Path, downscale: int, where: str, name: str = "images") -> tuple[Path, int]:
+    """The folder of views for ``downscale``: ``images_{downscale}/`` (``images/`` for 1) if it exists, else the
+    finest ``images_N/`` (or ``images/``) with ``N`` dividing ``downscale`` (box-filtered by ``downscale / N``);
+    with neither, ``downscale`` 1 takes the finest folder there is. Returns ``(folder, N)``."""
+    found = {1: root / name} if (root / name).is_dir() else {}
+    for p in root.glob(f"{name}_*"):
+        m = re.fullmatch(rf"{name}_([1-9][0-9]{{0,3}})", p.name)
+        if m and p.is_dir():
+            found[int(m.group(1))] = p
+    if not found:
+        raise DataError(f"{where} has no {name}/ folder (nor {name}_N/); put the photographs in {root / name}")
+    fits = [n for n in found if downscale % n == 0] or ([min(found)] if downscale == 1 else [])
+    if not fits:
+        raise DataError(f"{where}: no image folder fits downscale {downscale} (there are "
+                        f"{', '.join(found[n].name + '/' for n in sorted(found))}); choose a multiple of one of them")
+    n = max(fits)
+    return found[n], n
+
+
+def absent(paths: list[Path]) -> list[int]:
+    """Indices of the frames whose image file does not exist."""
+    return [i for i, p in enumerate(paths) if not (p.exists() or p.is_symlink())]
+
+
+def warn_skipped(where: str, missing: list, total: int) -> None:
+    """The one line on stderr that says how many listed frames were skipped for want of their image."""
+    if missing:
+        print(f"mitnerf: warning: {where}: {len(missing)} of {total} frames have no image file (the first: "
+              f"{missing[0]}); skipped them", file=sys.stderr)
+
+
+def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] | None = None,
+               scale_to: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Views of one size as ``(colour [n, h, w, 3] premultiplied by alpha, alpha [n, h, w])`` float32, box-filtered
+    by ``downscale`` (views one pixel wide, 2D, along their rows only): the image's own alpha, or ``masks`` (grey,
+    1 = the object) when given. Sizes are checked from the headers first, and the memory of the result
+    (``scale_to``: the size the views must have)."""
+    sizes = {image_size(p) for p in paths}
+    if len(sizes) != 1:
+        raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all views need one resolution: "
+                        "resize them")
+    H, W = sizes.pop()
+    if scale_to is not None and (H, W) != scale_to:
+        raise DataError(f"{where}: images are {W} x {H} pixels, expected {scale_to[1]} x {scale_to[0]}; fix the "
+                        "camera file or the images")
+    cols = 1 if W == 1 else downscale                  # a 2D view keeps its one column
+    h, w = H // downscale, W // cols
+    if min(h, w) < 1:
+        raise DataError(f"{where}: downscale {downscale} leaves no pixel of {W} x {H} views; choose a smaller one")
+    check_memory(len(paths) * h * w, where)
+    color, alpha = np.empty((len(paths), h, w, 3), np.float32), np.empty((len(paths), h, w), np.float32)
+    for i, p in enumerate(paths):
+        rgba = as_rgba(read_image(p))
+        if masks is not None:
+            m = as_rgba(read_image(masks[i]))
+            if m.shape[:2] != (H, W):
+                raise DataError(f"{masks[i]} is {m.shape[1]} x {m.shape[0]} pixels but its view is {W} x {H}; "
+                                "a mask needs the size of its view")
+            rgba[..., 3] = m[..., 0]
+        rgba[..., :3] *= rgba[..., 3:]
+        small = box_downscale(rgba[None], downscale, cols)[0]
+        color[i], alpha[i] = small[..., :3], small[..., 3]
+    return color, alpha
+
+
+def layout(poses: np.ndarray) -> str:
+    """``"forward"`` when every camera's view axis (OpenGL poses ``[n, 4, 4]``) lies within :data:`FORWARD_CONE`
+    of their mean (LLFF's scenes), else ``"around"``."""
+    axes = -poses[:, :3, 2]
+    mean = axes.sum(0)
+    norm = np.linalg.norm(mean)
+    return "forward" if norm > 0 and (axes @ mean / norm).min() >= np.cos(np.radians(FORWARD_CONE)) else "around"
+
+
+def near_far(cameras: Cameras, bounds: np.ndarray) -> tuple[float, float]:
+    """The distances along any ray that bound per-view depth ``bounds [n, 2]`` (along the optical axis): 0.9 of
+    the nearest (as NeRF's LLFF loader) and the farthest stretched along each view's widest ray."""
+    return 0.9 * float(bounds[:, 0].min()), float((bounds[:, 1] * cameras.depth_stretch()).max())
+
+
+def depth_bounds(views: Split, near: float, far: float) -> np.ndarray:
+    """``[n, 2]``: each view's nearest and farthest depth along its optical axis of what its depth map hits (of the
+    dataset's ``near`` and ``far`` distances for a view without): LLFF's bounds."""
+    c = views.cameras
+    out = np.c_[near / c.depth_stretch(), np.full(len(c), far)]
+    if views.depth is not None:
+        z = views.depth * -c.camera_directions()[..., -1]
+        for i, (zi, hit) in enumerate(zip(z, np.isfinite(views.depth))):
+            if hit.any():
+                out[i] = zi[hit].min(), zi[hit].max()
+    return out
