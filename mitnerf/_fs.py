@@ -10,6 +10,7 @@ import errno
 import fcntl
 import hashlib
 import json
+import math
 import os
 import secrets
 import shutil
@@ -254,6 +255,24 @@ def _build_entry(final: Path, build: Callable[[Path], None]) -> None:
                 rename_new(tmp, final)
     finally:
         remove_tree(tmp)
+
+
+def json_text(obj, indent: int | None = 1) -> str:
+    """Strict JSON (RFC 8259) of ``obj``: a NaN or an infinity becomes ``null``, numpy numbers become numbers,
+    anything else that JSON lacks its text."""
+    def clean(v):
+        if isinstance(v, dict):
+            return {str(k): clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if hasattr(v, "item") and callable(v.item) and getattr(v, "ndim", 0) == 0:   # a numpy number
+            v = v.item()
+        if isinstance(v, float):
+            return v if math.isfinite(v) else None
+        if hasattr(v, "tolist"):
+            return clean(v.tolist())
+        return v if v is None or isinstance(v, (bool, int, str)) else str(v)
+    return json.dumps(clean(obj), indent=indent, allow_nan=False)
 
 
 def digest(*items: bytes | str) -> str:

@@ -35,7 +35,7 @@ from typing import Iterator
 
 from . import __version__
 from ._fs import (EXCHANGE, MARKER, STAGING, Lock, atomic_write_bytes, atomic_write_text, cache_entry, cache_root,
-                  digest, available_memory, fsync_path, fsync_tree, hidden, no_interrupts, read_marker, recover,
+                  digest, available_memory, fsync_path, fsync_tree, hidden, json_text, no_interrupts, read_marker, recover,
                   remove_tree, rename_new, renameat2, tidy)
 from .errors import OutputError, os_error_line
 
@@ -353,4 +353,4 @@ def _merge(src: Path, dst: Path) -> None:
 
 
 __all__ = ["MARKER", "Output", "atomic_write_bytes", "atomic_write_text", "available_memory", "cache_entry",
-           "cache_root", "check_place", "digest", "read_marker", "tidy", "write_new_file"]
+           "cache_root", "check_place", "digest", "json_text", "read_marker", "tidy", "write_new_file"]

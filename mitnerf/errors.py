@@ -29,6 +29,11 @@ class EnvironmentProblem(MitnerfError):
     """The machine lacks something mitnerf needs (LLVM >= 16, a Mitsuba variant, memory)."""
 
 
+class Note(UserWarning):
+    """Something the user should know that is not an error (an open outline closed, frames skipped): the command
+    line prints it as one line, ``mitnerf: note: ...``."""
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised where Python runs next (the command line's handler), so that every ``finally`` (staging
     folders, locks) runs as for Ctrl-C."""

@@ -11,7 +11,7 @@ import os
 import platform
 from pathlib import Path
 
-from ._io import atomic_write_text
+from ._io import atomic_write_text, json_text
 
 
 def results_path() -> Path:
@@ -68,5 +68,5 @@ def record_result(key: str, values: dict, summary: str, command: str, recipe: st
         fcntl.flock(lock, fcntl.LOCK_EX)
         data = load_results(path)
         data[key] = entry
-        atomic_write_text(path, json.dumps(dict(sorted(data.items())), indent=1, default=float) + "\n")
+        atomic_write_text(path, json_text(dict(sorted(data.items()))) + "\n")
     return entry

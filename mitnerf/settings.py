@@ -246,9 +246,10 @@ def add_flags(group, cls, *, prefix: str = "", dest: str = "", overrides: bool =
         told = shown(key) if shown else s.get("shown") or _show(f)
         text = f"{summary(docs(cls).get(f.name, ''))}{unit} " + \
             ("(required)" if default is dataclasses.MISSING else f"(default: {told})")
-        if not s["flag"].startswith("-"):                   # a positional argument
-            group.add_argument(s["flag"], type=flag_type(cls, f), help=text,
-                               **({"choices": s["choices"]} if s.get("choices") else {}))
+        if not s["flag"].startswith("-"):                   # a positional argument (a list: any number of words)
+            group.add_argument(s["flag"], help=text, **({"nargs": "*", "metavar": s.get("metavar")} if kind == "tuple"
+                                                        else {"type": flag_type(cls, f)}),
+                               **({"choices": s["choices"]} if s.get("choices") and kind != "tuple" else {}))
         elif kind == "tuple" and not s.get("parse"):        # a list: one value per word
             group.add_argument(s["flag"], dest=dest + key, default=default, help=text, nargs="+",
                                type=str if _of_text(f) else float, metavar=s.get("metavar") or

@@ -29,7 +29,9 @@ def no_leftovers(folder: Path):
 def polygons(tmp_path):
     files = {}
     for name, pts in {"open": [[0, 0], [1, 0], [1, 1], [0, 1]],
-                      "crossing": [[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]]}.items():
+                      "crossing": [[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]],
+                      "pixels": [[100, 100], [400, 100], [400, 400], [100, 400], [100, 100]],
+                      "wide": [[-1.9, -0.2], [1.9, -0.2], [1.9, 0.2], [-1.9, 0.2], [-1.9, -0.2]]}.items():
         files[name] = tmp_path / f"{name}.json"
         files[name].write_text(json.dumps({"points": pts}))
     bad_xml = tmp_path / "bad.xml"
@@ -42,7 +44,9 @@ def polygons(tmp_path):
     ("missing xml", ["--scene", "/nonexistent/scene.xml"], "does not exist"),
     ("malformed xml", ["--scene", "{bad_xml}"], "fix the XML"),
     ("unknown scene", ["--scene", "teapot"], "unknown scene 'teapot'; choose one of"),
-    ("open polygon", ["--polygon", "{open}"], "is open"),
+    ("polygon in pixels", ["--polygon", "{pixels}"], "the cameras stand at 4: they would be inside it; scale it to "
+                                                     "about [-1, 1] (divide its points by 566)"),
+    ("polygon wider than the view", ["--polygon", "{wide}"], "see 1.79 of it; scale it to about [-1, 1]"),
     ("self-intersecting polygon", ["--polygon", "{crossing}"], "self-intersecting"),
     ("zero views", ["--scene", "square", "--views", "0"], "argument --views: it must be >= 1, got 0"),
     ("resolution 0", ["--scene", "square", "--image-size", "0"], "argument --image-size: it must be >= 1, got 0"),
@@ -55,6 +59,15 @@ def test_dataset_bad_input(case, args, words, polygons, tmp_path, capsys):
     assert rc == 2, case
     assert len(err.splitlines()) == 1 and words in err, err
     assert not out.exists() and no_leftovers(tmp_path)
+
+
+def test_an_open_ring_is_closed_with_a_note(polygons, tmp_path, capsys):
+    assert main(["dataset", "--polygon", str(polygons["open"]), "--views", "2", "--val", "0", "--test", "1",
+                 "--image-size", "8", "--out", str(tmp_path / "ds")]) == 0
+    err = [x for x in capsys.readouterr().err.splitlines() if x.startswith("mitnerf")]
+    assert err == ["mitnerf: note: polygon 'open' was open (its last point differs from its first): closed it with "
+                   "an edge from its last point to its first"]
+    assert (tmp_path / "ds" / "train" / "transforms.json").exists()
 
 
 def written(ds, tmp_path):

@@ -2,6 +2,8 @@
 transforms.json with lenses; round trips through our writers, hand-made files, downscaling, the held-out
 test views, absent frames, and the real fern and fox (skipped with one line when /work/shared/data is absent)."""
 
+import warnings
+
 import json
 from pathlib import Path
 
@@ -15,7 +17,7 @@ from mitnerf.data.color import display_color
 from mitnerf.data.dataset import Dataset, Split
 from mitnerf.data.formats import detect_format, load_dataset, save_dataset
 from mitnerf.data.formats.colmap import write_colmap
-from mitnerf.errors import DataError
+from mitnerf.errors import DataError, Note
 from mitnerf.train.fit import fit_and_evaluate
 
 DATA = ROOT.parent / "shared" / "data"
@@ -169,19 +171,23 @@ def test_downscale_box_filters_views_and_scales_intrinsics(vase_small, tmp_path)
         assert back["test"].depth is None                   # a block of pixels has no one depth
 
 
-def test_absent_frames_are_skipped_with_one_warning_line(vase_small, tmp_path, capsys):
+def test_absent_frames_are_skipped_with_one_note(vase_small, tmp_path, capsys):
     out = save_dataset(vase_small, tmp_path / "ns", "nerfstudio")
     for name in ("train_0001.png", "train_0004.png"):
         (out / "images" / name).unlink()
-    ds = load_dataset(out)
-    err = capsys.readouterr().err.splitlines()
-    assert len(err) == 1 and "2 of 11 frames have no image file" in err[0] and err[0].startswith("mitnerf: warning:")
+    with pytest.warns(Note) as notes:
+        ds = load_dataset(out)
+    assert len(notes) == 1 and "2 of 11 frames have no image file" in str(notes[0].message)
     assert len(ds["train"]) == 4 and len(ds["test"]) == 4
+    assert main(["show", str(out), "--out", str(tmp_path / "fig")]) == 0           # on the command line: one line
+    err = [x for x in capsys.readouterr().err.splitlines() if x.startswith("mitnerf")]
+    assert len(err) == 1 and err[0].startswith("mitnerf: note: ") and "2 of 11 frames" in err[0]
     for name in ("train_0000.png", "train_0002.png", "train_0003.png"):
         (out / "images" / name).unlink()
-    with pytest.raises(DataError, match="5 of 11 frames have no image file"):      # 1 training view would be left
-        load_dataset(out)
-    assert capsys.readouterr().err == ""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                                          # no note before the refusal
+        with pytest.raises(DataError, match="5 of 11 frames have no image file"):  # 1 training view would be left
+            load_dataset(out)
 
 
 def test_an_unknown_folder_names_every_layout(tmp_path):
@@ -229,11 +235,11 @@ def test_fern_loads_from_its_smaller_folders():
     assert load_dataset(fern).meta["downscale"] == 4          # no full-size folder ships: the finest there is
 
 
-def test_the_fox_loads_with_its_lens_and_absent_frames_skipped(capsys):
+def test_the_fox_loads_with_its_lens_and_absent_frames_skipped():
     fox = need(DATA / "instant_ngp" / "fox")
-    ds = load_dataset(fox, downscale=8)
-    err = capsys.readouterr().err.splitlines()
-    assert len(err) == 1 and "17 of 67 frames" in err[0]
+    with pytest.warns(Note, match="17 of 67 frames") as notes:
+        ds = load_dataset(fox, downscale=8)
+    assert len(notes) == 1
     assert len(ds["train"]) + len(ds["test"]) == 50 and len(ds["test"]) == 7
     c = ds["train"].cameras
     assert (c.height, c.width) == (240, 135)                 # 1920 x 1080 / 8

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mitnerf.errors import MitnerfError
+from mitnerf.errors import MitnerfError, Note
 from mitnerf.scenes.polygon import Polygon
 from mitnerf.scenes.registry import SCENES_2D, SCENES_XML
 
@@ -24,7 +24,6 @@ def test_clockwise_input_is_turned_counter_clockwise():
 
 
 @pytest.mark.parametrize("points, words", [
-    ([[0, 0], [1, 0], [1, 1], [0, 1]], "open"),                     # last point != first
     ([[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]], "self-intersecting"),  # a bow tie
     ([[0, 0], [1, 0], [0, 0]], "at least 3"),
     ([[0, 0], [1, np.nan], [1, 1], [0, 0]], "NaN"),
@@ -33,6 +32,14 @@ def test_clockwise_input_is_turned_counter_clockwise():
 def test_bad_outlines_name_the_problem_and_the_fix(points, words):
     with pytest.raises(MitnerfError, match=words):
         Polygon.from_points(points)
+
+
+def test_an_open_ring_is_closed_with_a_note():
+    with pytest.warns(Note, match="was open"):
+        poly = Polygon.from_points([[0, 0], [1, 0], [1, 1], [0, 1]])      # last point != first
+    assert len(poly.points) == 4 and poly.signed_area() == pytest.approx(1.0)
+    with pytest.raises(MitnerfError, match="self-intersecting"):               # closed, then checked like any
+        Polygon.from_points([[0, 0], [1, 1], [1, 0], [0, 1]])
 
 
 def test_intersection_of_the_unit_square_by_hand():

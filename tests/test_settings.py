@@ -11,6 +11,7 @@ import pytest
 
 from mitnerf import settings
 from mitnerf.cli import build_parser
+from mitnerf.cli.compare_cmd import CompareCommand
 from mitnerf.cli.data_cmds import DatasetCommand, ShowCommand
 from mitnerf.cli.experiment_cmd import ExperimentCommand, SweepCommand
 from mitnerf.cli.fit_cmd import FitCommand, RecipesCommand
@@ -32,7 +33,7 @@ CONFIGS = [TrainConfig, RenderConfig, OccupancyConfig, RigConfig, OrbitConfig, S
 COMMANDS = {"dataset": [DatasetCommand, RigConfig], "show": [ShowCommand], "recipes": [RecipesCommand],
             "fit": [FitCommand, TrainConfig, RenderConfig, OccupancyConfig, *FIELD_CONFIGS],
             "video": [VideoCommand, OrbitConfig], "experiment": [ExperimentCommand],
-            "sweep": [SweepCommand, SweepConfig]}
+            "sweep": [SweepCommand, SweepConfig], "compare": [CompareCommand]}
 NOT_SETTINGS = {"-h", "--help", "--set", "--recipe", "--field"}
 """Options that choose among declarations rather than set one: help, ``--set KEY=VALUE``, a recipe by name."""
 

@@ -152,7 +152,7 @@ def test_sigint_then_resume_lands_where_an_uninterrupted_run_does(bunny_small, t
     save_dataset(bunny_small, tmp_path / "ds")
     cmd = [sys.executable, "-m", "mitnerf", "fit", "--data", str(tmp_path / "ds"), "--field", "vanilla",
            "--iters", "1500", "--mlp-width", "16", "--mlp-depth", "3", "--samples", "32", "--batch", "256",
-           "--val-every", "0", "--threads", "1", "--no-figures"]
+           "--set", "time_budget=null", "--val-every", "0", "--threads", "1", "--no-figures"]
     whole = subprocess.run(cmd + ["--out", str(tmp_path / "whole")], capture_output=True, text=True, cwd=ROOT)
     assert whole.returncode == 0, whole.stderr
     p = subprocess.Popen(cmd + ["--out", str(tmp_path / "cut")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,

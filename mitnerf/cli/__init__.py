@@ -12,10 +12,11 @@ import argparse
 import contextlib
 import signal
 import sys
+import warnings
 
 from .._variant import set_variant
-from ..errors import ConfigError, MitnerfError, Terminated, os_error_line
-from . import data_cmds, experiment_cmd, fit_cmd, video_cmd
+from ..errors import ConfigError, MitnerfError, Note, Terminated, os_error_line
+from . import compare_cmd, data_cmds, experiment_cmd, fit_cmd, video_cmd
 
 
 class Parser(argparse.ArgumentParser):
@@ -33,7 +34,7 @@ class Parser(argparse.ArgumentParser):
 def build_parser() -> Parser:
     parser = Parser(prog="mitnerf", description=" ".join(__doc__.split("\n\n")[0].split()))
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for module in (data_cmds, fit_cmd, video_cmd, experiment_cmd):
+    for module in (data_cmds, fit_cmd, compare_cmd, video_cmd, experiment_cmd):
         module.register(sub)
     return parser
 
@@ -58,7 +59,12 @@ def main(argv: list[str] | None = None) -> int:
         with contextlib.suppress(AttributeError, ValueError):
             stream.reconfigure(errors="backslashreplace")
     try:
-        with _signals_raise():
+        with _signals_raise(), warnings.catch_warnings():
+            warnings.simplefilter("always", Note)             # a Note: one line; other warnings as usual
+            show = warnings.showwarning
+            warnings.showwarning = lambda message, category, *a, **k: print(f"mitnerf: note: {message}",
+                                                                            file=sys.stderr) \
+                if issubclass(category, Note) else show(message, category, *a, **k)
             args = build_parser().parse_args(argv)
             set_variant()
             return int(args.run(args) or 0)

@@ -62,7 +62,8 @@ def recipe_from_args(args, dim: int):
             raise ConfigError(f"--set {key}: the recipe {base.name} has no setting {key!r}; "
                               f"`mitnerf recipes --verbose` lists its settings")
         check_value(*where, value, prefix="occupancy." if key.startswith("occupancy.") else "")
-    recipe = base.override(**overrides(args)).validate()
+    flags = {k: v for k, v in overrides(args).items() if k not in dict(args.sets)}
+    recipe = base.override(**flags).override(nulls=True, **dict(args.sets))._marked(base).validate()
     check_step_memory(recipe)
     return recipe
 

@@ -120,7 +120,7 @@ def run_show(args) -> int:
     target, paths = Output(out, "figures", args.overwrite, inputs=[args.dataset]), []
     with target.staged() as tmp:
         for name, split in ds.splits.items():
-            paths += split_figures(split, name, tmp, ds.background, ds.near, ds.far)
+            paths += split_figures(split, name, tmp, ds.background, ds.near, ds.far, title=ds.name)
         cams = {k: v.cameras for k, v in ds.splits.items()}
         if ds.dim == 2:
             paths.append(plot_rig_2d(cams, ds.meta.get("polygon"), tmp / "rig.png", title=ds.meta.get("scene", "")))

@@ -16,7 +16,7 @@ from ..data.formats import load_dataset
 from ..errors import ConfigError, Terminated
 from ..results import load_results
 from ..train.auto import AutoConfig, choose_recipe
-from ..train.checkpoint import checkpoint_bytes, load_checkpoint
+from ..train.checkpoint import checkpoint_bytes, load_checkpoint, read_manifest
 from ..train.fit import check_dataset, fit
 from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
@@ -32,12 +32,13 @@ class FitCommand:
 
     data: str | None = setting(None, flag="--data", metavar="DIR", shown="none; give --data or --resume")
     """Dataset folder (NeRF2D, Blender, nerfstudio, instant-ngp) or tiny-NeRF .npz."""
-    out: str | None = setting(None, flag="--out", metavar="DIR", shown="none: nothing is kept")
+    out: str | None = setting(None, flag="--out", metavar="DIR", shown="a new folder out/<data>-<recipe>")
     """Folder for the checkpoint, metrics and figures."""
     overwrite: bool = setting(False, flag="--overwrite")
     """Write into an --out folder that holds other files (they are left alone)."""
     resume: str | None = setting(None, flag="--resume", metavar="RUN", shown="none")
-    """Continue an interrupted run from its --out folder."""
+    """Continue a run from its folder: an interrupted one to its end, a finished one for --time-budget seconds
+    (or --iters steps) more."""
     backend: str | None = setting(None, choices=("drjit", "torch"), flag="--backend",
                                   shown="drjit, or a resumed run's own")
     """Engine: drjit, or torch (the PyTorch twin: pip install -e .[torch])."""
@@ -54,6 +55,8 @@ class RecipesCommand:
 
     dim: int | None = setting(None, choices=(2, 3), flag="--dim", shown="both")
     """Only the recipes for datasets of this dimension."""
+    verbose: bool = setting(False, flag="--verbose")
+    """Every recipe's settings, how it is made, and every figure measured for it."""
 
 
 def register(sub) -> None:
@@ -63,11 +66,16 @@ def register(sub) -> None:
                 help="list the training recipes with their measured figures")
 
 
+RESUMABLE = ("time_budget", "iters", "threads", "progress")
+"""What ``--resume`` lets a flag change: how much longer (seconds or steps more), and how it runs."""
+
+
 def run_fit(args) -> int:
     resume, cmd = None, parse(args)
     if cmd.resume:
-        if overrides(args) or args.recipe or args.field or cmd.auto:
-            raise ConfigError("--resume continues the run as it was; drop the recipe flags")
+        if set(overrides(args)) - set(RESUMABLE) or args.recipe or args.field or cmd.auto or cmd.out:
+            raise ConfigError("--resume continues the run as it was, into its own folder; of the other flags it "
+                              "takes --time-budget (seconds more), --iters (steps more) and --threads")
         prior, resume = load_checkpoint(cmd.resume, cmd.backend, need="--resume")
         data = cmd.data or prior.dataset_meta.get("path")
         if not data:
@@ -75,60 +83,91 @@ def run_fit(args) -> int:
         if not cmd.data and not os.path.lexists(data):
             raise ConfigError(f"the dataset {cmd.resume} was trained on is no longer at {data}; pass --data with "
                               "where it is now")
-        recipe, backend, out_path = prior.recipe, prior.backend.name, Path(cmd.resume)
+        evaluated = "psnr" in read_manifest(cmd.resume).get("metrics", {})
+        recipe, backend, out_path = extended(prior.recipe, resume["state"], overrides(args), cmd.resume,
+                                             evaluated), prior.backend.name, Path(cmd.resume)
         dataset = load_dataset(data)
     else:
         if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
         data, dataset = cmd.data, load_dataset(cmd.data)
         recipe = recipe_from_args(args, dataset.dim)
-        backend, out_path = cmd.backend or "drjit", Path(cmd.out) if cmd.out else None
+        backend = cmd.backend or "drjit"
+        out_path = Path(cmd.out) if cmd.out else fresh_folder(Path("out"), f"{dataset.name}-{recipe.name.rstrip('+')}")
     check_dataset(dataset, need_test=True)
     out = Output(out_path, "fit", cmd.overwrite, inputs=[data],
-                 size=checkpoint_bytes(recipe, dataset.dim)) if out_path else None      # refused before training
+                 size=checkpoint_bytes(recipe, dataset.dim))                  # refused before training
     if cmd.auto:
         if args.recipe:
             raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")
         cfg = AutoConfig(families=(args.field,)) if args.field else None
-        recipe, reasons = choose_recipe(dataset, cfg, overrides(args))
+        print("auto: probing candidates (each trains as long as the real run)", flush=True)
+        recipe, reasons = choose_recipe(dataset, cfg, overrides(args), say=lambda line: print(f"auto: {line}",
+                                                                                               flush=True))
         for line in reasons:
             print(f"auto: {line}")
     print(f"recipe {recipe.summary()} ({backend})")
+    print(f"writing to {out.path}" + ("" if cmd.out or cmd.resume else " (choose with --out)"), flush=True)
     return train_and_report(dataset, recipe, backend, out, resume, figures=cmd.figures)
 
 
-def train_and_report(dataset, recipe, backend: str, out: Output | None, resume=None, figures: bool = True) -> int:
+def fresh_folder(parent: Path, name: str) -> Path:
+    """``parent/name``, or ``name-2``, ``name-3``, ... : the first that does not exist."""
+    path, k = parent / name, 1
+    while os.path.lexists(path):
+        k += 1
+        path = parent / f"{name}-{k}"
+    return path
+
+
+def extended(recipe, state, more: dict, where, evaluated: bool) -> object:
+    """The recipe of a run resumed from ``state``: as it was, or ``more`` seconds (``time_budget``) or steps
+    (``iters``) beyond where it stopped; refused when it has finished and been evaluated and no more is asked
+    for."""
+    t = recipe.train
+    if "time_budget" in more:
+        recipe = recipe.override(time_budget=state.train_time + more["time_budget"], iters=max(t.iters, 10 ** 6))
+    if "iters" in more:
+        recipe = recipe.override(iters=state.step + more["iters"])
+    recipe = recipe.override(**{k: v for k, v in more.items() if k in ("threads", "progress")})
+    t = recipe.train
+    budget = f"{state.train_time:.1f} s of {t.time_budget:g} s" if t.time_budget else f"step {state.step} of {t.iters}"
+    finished = state.step >= t.iters or (t.time_budget is not None and state.train_time >= t.time_budget)
+    if finished and evaluated:
+        raise ConfigError(f"{where} has finished its training ({budget}); pass --time-budget SECONDS or --iters "
+                          "STEPS to train that much more")
+    print(f"resuming at step {state.step} ({budget})" + ("; evaluating" if finished else ""))
+    return recipe
+
+
+def train_and_report(dataset, recipe, backend: str, out: Output, resume=None, figures: bool = True) -> int:
     """Fit, evaluate and write; turn a stopped or interrupted run into its message and exit status."""
     run = None
     try:
         run = fit(dataset, recipe, backend, resume=resume)
         record = run.record(dataset)
     except Interrupted as exc:
-        where = "nothing was written (pass --out to keep checkpoints)"
-        if out is not None:
-            save(out, exc.run)
-            where = f"wrote {out.path}; resume with `mitnerf fit --resume {out.path}`"
-        print(f"mitnerf: interrupted ({exc}) at step {exc.run.state.step}; {where}")
+        save(out, exc.run)
+        print(f"mitnerf: interrupted ({exc}) at step {exc.run.state.step}; wrote {out.path}; resume with "
+              f"`mitnerf fit --resume {out.path}`")
         return 128 + int(exc.signum) if exc.signum in (signal.SIGINT, signal.SIGTERM) else 1
     except TrainingFailed as exc:
         rec = exc.run.record(dataset, geometry_metrics=False)
         rec.status, rec.reason = exc.status, str(exc)
-        if out is not None:
-            save(out, exc.run, rec)
-        print(f"mitnerf: training stopped: {exc}" + (f"; wrote {out.path}" if out is not None else ""))
+        save(out, exc.run, rec)
+        print(f"mitnerf: training stopped: {exc}; wrote {out.path}")
         return 1
     except KeyboardInterrupt as exc:            # while evaluating: the training is done, keep it
-        if run is not None and out is not None:
+        if run is not None:
             save(out, run)
             exc.note = f"; the trained model is in {out.path}: evaluate it with `mitnerf fit --resume {out.path}`"
         raise
     for note in run.notes:
         print(note)
-    if out is not None:
-        signals = save(out, run, record, dataset if figures else None)
-        print(f"wrote {out.path}")
-        if signals:
-            raise (Terminated if signals[0] == signal.SIGTERM else KeyboardInterrupt)()
+    signals = save(out, run, record, dataset if figures else None)
+    print(f"wrote {out.path}")
+    if signals:
+        raise (Terminated if signals[0] == signal.SIGTERM else KeyboardInterrupt)()
     print(record.line() + f" ({backend})")
     return 0 if record.status == "ok" else 1
 
@@ -141,16 +180,26 @@ def save(out: Output, run, record=None, dataset=None) -> list:
     return signals
 
 
+FIRST = ("demo/", "fit/", "lego/", "fern/", "fox/", "fits/", "glossy/")
+"""The results a recipe's line names first: what users run, before the benchmarks' internals."""
+
+
 def run_recipes(args) -> int:
     args = parse(args)
     results = load_results()
     for name, r in RECIPES.items():
         if args.dim and r.dim != args.dim:
             continue
-        print(f"{r.summary()}{' [default]' if DEFAULT[r.dim] == name else ''}\n    {r.about}")
-        for key, entry in sorted(results.items()):
-            if entry.get("recipe") == name:
-                print(f"    measured: {entry['summary']} ({key}; `{entry['command']}`)")
+        t = r.train
+        budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
+        print(f"{name} ({r.dim}D, {budget}{', the default' if DEFAULT[r.dim] == name else ''}): {r.purpose}")
+        mine = sorted(((k, e) for k, e in results.items() if e.get("recipe") == name),
+                      key=lambda ke: (not ke[0].startswith(FIRST), ke[0]))
+        for key, entry in mine if args.verbose else mine[:1]:
+            print(f"    measured: {entry['summary']} ({key}; `{entry['command']}`)")
+        if args.verbose:
+            print(f"    how: {r.about}\n    settings: {r.summary().split(': ', 1)[1]}")
+    print("(`mitnerf recipes --verbose`: settings and every measured figure)" if not args.verbose else "")
     if not results:
         print("(no measured figures: results.json is missing; `make bench` writes it)")
     return 0

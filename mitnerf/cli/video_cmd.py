@@ -5,11 +5,10 @@ trained 3D field, looking at the origin) and, unless ``--no-mesh``, ``mesh.ply``
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from .._io import Output
+from .._io import Output, json_text
 from ..errors import MitnerfError
 from ..geometry import LEVEL, chamfer_distance, extract_mesh
 from ..scenes.objects3d import OBJECTS_3D
@@ -107,7 +106,7 @@ def write_mesh_outputs(model, out: Path, level, resolution: int, n_points: int, 
         c = chamfer_distance(mesh, truth, n_points=n_points, seed=0)
         result.update(truth=str(truth), chamfer=c.chamfer, learned_to_truth=c.a_to_b, truth_to_learned=c.b_to_a,
                       n_points=c.n_points, sampling_floor=c.floor)
-        (out / "chamfer.json").write_text(json.dumps(result, indent=1))
+        (out / "chamfer.json").write_text(json_text(result))
         note = str(c)
         print(f"{note} against {truth.name}")
     plot_mesh_comparison(mesh, truth, out / "mesh.png", texture, note=note, elevation=cfg.elevation,

@@ -7,6 +7,7 @@ beside them, so any background can be composited later: ``target = color + (1 - 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -176,6 +177,11 @@ class Dataset:
     @property
     def dim(self) -> int:
         return next(iter(self.splits.values())).cameras.dim
+
+    @property
+    def name(self) -> str:
+        """What figures and output folders call the data: its scene, else its file or folder's name."""
+        return self.meta.get("scene") or (Path(self.meta["path"]).stem if self.meta.get("path") else "data")
 
     @property
     def bound(self) -> float:

@@ -8,7 +8,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .. import __version__
-from ..errors import ConfigError
+from ..errors import ConfigError, DataError
 from ..scenes.gt_render import RenderSettings, exact_depth, render_color
 from ..scenes.looks import roughness_of
 from ..scenes.registry import SceneInfo
@@ -27,12 +27,29 @@ def render_cameras(mi_scene, cams: Cameras, settings: RenderSettings) -> Split:
     return Split.from_linear(cams, rgb, alpha, depth, mask)
 
 
+def check_framing(scene: SceneInfo, rig: RigConfig) -> None:
+    """Refuse an object the rig's cameras would stand inside of, or could not see whole (an outline drawn in pixels
+    instead of about [-1, 1], say), with the fix."""
+    r = scene.polygon.radius() if scene.polygon is not None else scene.radius
+    fov = rig.fov if rig.fov is not None else (53.13 if rig.dim == 2 else 40.0)
+    seen = rig.radius * np.sin(np.radians(fov / 2))          # the largest circle about the centre a camera sees whole
+    scale = f"scale it to about [-1, 1] (divide its points by {r:.3g}), or "
+    if r >= 0.95 * rig.radius:
+        raise DataError(f"{scene.name} reaches {r:.3g} units from the centre and the cameras stand at "
+                        f"{rig.radius:g}: they would be inside it; {scale}pass --radius above {1.2 * r:.3g}")
+    if r > 1.02 * seen:
+        raise DataError(f"{scene.name} reaches {r:.3g} units from the centre, but cameras at {rig.radius:g} with a "
+                        f"{fov:g} degree view see {seen:.3g} of it; {scale}pass --radius "
+                        f"{r / np.sin(np.radians(fov / 2)):.3g}")
+
+
 def make_dataset(scene: SceneInfo, rig: RigConfig | None = None, render: RenderSettings | None = None,
                  progress: bool = True) -> Dataset:
     """Render train/val/test views of ``scene``; deterministic for ``rig.seed`` and ``render.seed``."""
     dim = 2 if scene.kind == "2d" else 3
     rig = rig or RigConfig(dim=dim)
     rig = rig if rig.dim == dim else dataclasses.replace(rig, dim=dim)
+    check_framing(scene, rig)
     render = render or RenderSettings()
     if scene.lighting == "env" and render.integrator == "all_lights":
         raise ConfigError(f"{scene.name} is lit by an environment, which the all_lights integrator cannot sum; "

@@ -84,8 +84,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
             ds = cached_dataset(scene, RigConfig(dim=2, n_train=k, n_val=4, n_test=20, layout="even", seed=cfg.seed))
             for method, supervised in METHODS:
                 for s in range(cfg.seeds):
-                    recipe = get_recipe("vanilla-2d").override(
-                        width=cfg.width, depth=cfg.depth, pos_L=cfg.pos_L, n_coarse=cfg.samples, iters=cfg.steps,
+                    recipe = get_recipe("vanilla-2d").at_steps(
+                        cfg.steps, width=cfg.width, depth=cfg.depth, pos_L=cfg.pos_L, n_coarse=cfg.samples,
                         batch_rays=cfg.batch_rays, val_every=0, seed=cfg.seed + s,
                         depth_weight=cfg.depth_weight if supervised else 0.0, depth_sigma=cfg.depth_sigma)
                     row, r, rec = train_row(ds.sparse(), recipe, {"scene": scene, "views": k, "method": method,

@@ -75,8 +75,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
     rows, firsts = [], {}
     for L in cfg.Ls:
         for k in range(cfg.seeds):
-            recipe = get_recipe("vanilla-2d").override(width=cfg.width, depth=cfg.depth, pos_L=L, n_coarse=cfg.samples,
-                                                      iters=cfg.steps, batch_rays=cfg.batch_rays, lr=cfg.lr,
+            recipe = get_recipe("vanilla-2d").at_steps(cfg.steps, width=cfg.width, depth=cfg.depth, pos_L=L,
+                                                      n_coarse=cfg.samples, batch_rays=cfg.batch_rays, lr=cfg.lr,
                                                       lr_final=cfg.lr / 25, val_every=0, seed=cfg.seed + k)
             row, r, rec = train_row(ds, recipe, {"L": L, "seed": cfg.seed + k})
             rows.append(row)

@@ -8,12 +8,13 @@ every wall of the prism faces outward (Mitsuba's diffuse surfaces are one-sided)
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import MitnerfError
+from ..errors import MitnerfError, Note
 
 MAX_POINTS = 10_000
 """Most outline points mitnerf takes (the self-intersection test is quadratic in them)."""
@@ -83,10 +84,11 @@ class Polygon:
                                f"{pts.shape}; write it as [[x0, y0], [x1, y1], ..., [x0, y0]]")
         if not np.all(np.isfinite(pts)):
             raise MitnerfError(f"polygon {name!r}: a point is NaN or infinite; give finite coordinates")
-        if len(pts) < 2 or not np.allclose(pts[0], pts[-1], atol=1e-9):
-            first, last = (pts[0].tolist(), pts[-1].tolist()) if len(pts) else ([], [])
-            raise MitnerfError(f"polygon {name!r} is open: its last point {last} differs from its first {first}; "
-                               "repeat the first point at the end to close it")
+        was_open = len(pts) >= 3 and not np.allclose(pts[0], pts[-1], atol=1e-9)
+        if was_open:
+            pts = np.vstack([pts, pts[:1]])
+        if len(pts) < 2:
+            raise MitnerfError(f"polygon {name!r} has {len(pts)} points; a closed outline needs at least 3")
         pts = pts[:-1]
         if len(pts) > MAX_POINTS:
             raise MitnerfError(f"polygon {name!r} has {len(pts)} points; mitnerf takes at most {MAX_POINTS}: "
@@ -106,6 +108,9 @@ class Polygon:
             raise MitnerfError(f"polygon {name!r} has zero area; its points are collinear")
         if area < 0:
             poly = cls(pts[::-1].copy(), name)
+        if was_open:
+            warnings.warn(f"polygon {name!r} was open (its last point differs from its first): closed it with an "
+                          "edge from its last point to its first", Note, stacklevel=2)
         return poly
 
     @classmethod

@@ -123,8 +123,15 @@ def switch(now: bool, gain: float, need: float) -> tuple[bool, str]:
     return take, ("dropped" if now else "added") if take else ("kept" if now else "left off")
 
 
-def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
-    """The chosen model and its options; see the module docstring."""
+def trial_line(t: Trial) -> str:
+    """One probe as ``fit --auto`` prints it."""
+    r = t.recipe.model
+    return (f"{r.field} ({', '.join(f'{k}={v}' for k, v in r.field_args.items())}), {r.render.n_coarse} samples: "
+            f"{t.params} parameters, validation {round(t.val_psnr, 2)} dB in {t.train_time:.1f} s [{t.note}]")
+
+
+def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> AutoResult:
+    """The chosen model and its options; see the module docstring. ``say(line)`` hears of each probe as it ends."""
     cfg = cfg or AutoConfig()
     t0 = time.perf_counter()
     spent = lambda: time.perf_counter() - t0 > cfg.time_budget
@@ -136,6 +143,8 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
         run = fit(dataset, recipe.copy(), "drjit", progress=False)
         val = run.state.history["val_psnr"]
         trials.append(Trial(recipe, run.backend.n_params(), val[-1] if val else -math.inf, run.state.train_time, note))
+        if say is not None:
+            say(trial_line(trials[-1]))
         return trials[-1]
 
     sized: list[Trial] = []
@@ -179,23 +188,22 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None) -> AutoResult:
     return AutoResult(best.recipe, trials, reached, reasons)
 
 
-def choose_recipe(dataset: Dataset, cfg: AutoConfig | None = None,
-                  settings: dict | None = None) -> tuple[Recipe, list[str]]:
+def choose_recipe(dataset: Dataset, cfg: AutoConfig | None = None, settings: dict | None = None,
+                  say=None) -> tuple[Recipe, list[str]]:
     """``fit --auto``: the winning probe's recipe with its family's validation and seed settings, then ``settings``
-    (what the user typed, :meth:`Recipe.override`); returns it and the reasons. It trains for the probes' budget
-    (the user's ``time_budget`` when typed), or its family's when the probes count steps."""
+    (what the user typed, :meth:`Recipe.override`); returns it and the reasons (the probes' lines too, unless
+    ``say`` heard each as it ended). It trains for the probes' budget (the user's ``time_budget`` when typed), or
+    its family's when the probes count steps."""
     settings = dict(settings or {})
     cfg = copy.copy(cfg or AutoConfig())
     if settings.get("time_budget") and not cfg.probe_time:
         cfg.probe_time = float(settings["time_budget"])
-    result = auto_size(dataset, cfg)
+    result = auto_size(dataset, cfg, say)
     base = recipe_for(result.recipe.model.field, dataset.dim)   # the winning probe, less what only probes set
     own = base.train
     chosen = result.recipe.override(val_every=own.val_every, val_views=own.val_views, seed=own.seed,
                                     progress=own.progress,
                                     **(dict(iters=own.iters, time_budget=own.time_budget) if cfg.steps else {}))
     chosen.name = f"auto:{base.name}"
-    lines = [f"{t.recipe.model.field} ({', '.join(f'{k}={v}' for k, v in t.recipe.model.field_args.items())}), "
-             f"{t.recipe.model.render.n_coarse} samples: {t.params} parameters, validation {round(t.val_psnr, 2)} dB "
-             f"in {t.train_time:.1f} s [{t.note}]" for t in result.trials]
+    lines = [] if say is not None else [trial_line(t) for t in result.trials]
     return chosen.override(**settings).validate(), lines + result.reasons

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_write_text
+from .._io import atomic_write_text, json_text
 from ..errors import CheckpointError, MitnerfError
 from .auto import final_params
 from .engines import make_backend
@@ -61,8 +61,8 @@ def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -
                 "far": be.far, "dataset": run.dataset_meta,
                 "loop": {"step": run.state.step, "train_time": run.state.train_time}, "best": run.best,
                 "metrics": metrics or {}, "arrays": {name: meta for name, (_, meta) in files.items()}}
-    atomic_write_text(folder / "history.json", json.dumps(run.state.history, default=float))
-    atomic_write_text(folder / "manifest.json", json.dumps(manifest, indent=1, default=str))
+    atomic_write_text(folder / "history.json", json_text(run.state.history, indent=None))
+    atomic_write_text(folder / "manifest.json", json_text(manifest))
     return folder
 
 
@@ -194,7 +194,8 @@ def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str 
         raise CheckpointError(f"{path}: state.npz holds optimizer state that does not fit the model its manifest "
                               "describes (Adam keeps two moments per parameter); the checkpoint was edited: refit it")
     try:
-        history = {**new_history(), **json.loads((path / "history.json").read_text())}
+        history = {**new_history(), **{k: [math.nan if v is None else v for v in vs] if isinstance(vs, list) else vs
+                                       for k, vs in json.loads((path / "history.json").read_text()).items()}}
     except (OSError, ValueError, TypeError):                 # TypeError: not a JSON object
         history = new_history()
     loop = LoopState(int(m["loop"]["step"]), float(m["loop"]["train_time"]), history)

@@ -87,8 +87,12 @@ class TrainConfig:
     """Weight of mip-NeRF 360's distortion loss (floaters, fill-in); 0: off."""
     opacity_weight: float = setting(0.0, lo=0, hi=1e6, flag="--opacity-weight")
     """Weight of the rays' opacity entropy (haze); 0: off."""
-    val_every: int = setting(250, lo=0, hi=10 ** 9, flag="--val-every", unit="steps")
+    val_every: int | None = setting(None, lo=0, hi=10 ** 9, flag="--val-every", unit="steps",
+                                    shown="10 validations spread over the run")
     """Validate every so many steps (0: only at the end); the best validation is kept."""
+    val_points: int = setting(10, lo=1, hi=10 ** 4)
+    """Validations spread evenly over the run's budget (seconds or steps) when ``val_every`` is unset: the
+    learning curve's points."""
     val_views: int = setting(4, lo=1, hi=10 ** 6)
     """Validation views rendered each time."""
     keep_best: bool = setting(True)

@@ -1,7 +1,7 @@
-"""Fitting a field to a dataset: ``fit(dataset, recipe, backend) -> Run``. Every ``val_every`` steps a few
-validation views give a PSNR, stop a *collapsed* field (:func:`~mitnerf.train.evaluate.classify`) and keep the
-best weights (the end weights with ``keep_best`` where they beat the last by ``keep_best_margin``, said in
-:attr:`Run.notes`). A NaN restores the last good validation's weights. :class:`TrainingFailed` and
+"""Fitting a field to a dataset: ``fit(dataset, recipe, backend) -> Run``. As it trains (``val_every``,
+``val_points``), a few validation views give a PSNR, stop a *collapsed* field (:func:`~.evaluate.classify`; judged
+once a quarter of the run has passed) and keep the best weights (the end weights with ``keep_best`` where they
+beat the last by ``keep_best_margin``, said in :attr:`Run.notes`). A NaN restores the last good validation's weights. :class:`TrainingFailed` and
 :class:`Interrupted` (Ctrl-C, SIGTERM) carry the :class:`Run` so it can be saved and resumed."""
 
 from __future__ import annotations
@@ -86,7 +86,8 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     def validate(step: int) -> None:
         r, _ = render_split(be, val)
         status, reason = classify(r["rgb"], r["opacity"], val, bg)
-        if status != "ok" and step >= 2 * cfg.warmup:
+        share = run.state.train_time / cfg.time_budget if cfg.time_budget else step / cfg.iters
+        if status != "ok" and step >= 2 * cfg.warmup and share >= 0.25:
             raise TrainingFailed(f"the field {status} by step {step} ({reason}); use a softplus density "
                                  "(--set density_activation=softplus), a lower --lr or a longer warm-up",
                                  status, step)

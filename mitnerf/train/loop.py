@@ -78,6 +78,13 @@ def run_loop(step_fn: Callable, read_fn: Callable, cfg: TrainConfig, state: Loop
     ``read_fn(handle) -> (loss, name of a non-finite quantity or None)``; ``validate(step)`` every ``val_every``."""
     budget, h = cfg.time_budget, state.history
     pending: list = []
+
+    def due(state: LoopState) -> bool:
+        """Whether a validation is due: every ``val_every`` steps, or each ``1 / val_points`` of the budget."""
+        if cfg.val_every is not None:
+            return bool(cfg.val_every) and state.step % cfg.val_every == 0
+        share = state.train_time / budget if budget is not None else state.step / cfg.iters
+        return len(h["val_step"]) + 1 <= share * cfg.val_points and share < 1
     bar = tqdm(total=budget if budget is not None else cfg.iters, desc=desc, leave=False,
                unit="s" if budget is not None else "step", disable=not cfg.progress, mininterval=0.5,
                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s{postfix}" if budget is not None else None)
@@ -114,7 +121,7 @@ def run_loop(step_fn: Callable, read_fn: Callable, cfg: TrainConfig, state: Loop
                     drain()                                  # syncs, so the clock below is honest
                 if signals:
                     raise Interrupted(signals[0])
-                if validate is not None and cfg.val_every and state.step % cfg.val_every == 0:
+                if validate is not None and due(state):
                     drain()
                     validate(state.step)
                     t_last = time.perf_counter()              # validation is not training time

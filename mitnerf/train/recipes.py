@@ -28,26 +28,29 @@ class Recipe:
     train: TrainConfig
     """Budget, batch, learning-rate schedule, losses."""
     about: str = ""
-    """One line: what it is for."""
+    """How it is made, and why."""
+    purpose: str = ""
+    """What it is for, in a few words (``mitnerf recipes`` leads with it)."""
 
     def copy(self) -> "Recipe":
         return copy.deepcopy(self)
 
     def to_dict(self) -> dict:
         return {"name": self.name, "dim": self.dim, "model": self.model.to_dict(),
-                "train": dataclasses.asdict(self.train), "about": self.about}
+                "train": dataclasses.asdict(self.train), "about": self.about, "purpose": self.purpose}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Recipe":
         train = {k: v for k, v in d["train"].items() if k in TrainConfig.__dataclass_fields__}
         return cls(d["name"], int(d["dim"]), ModelConfig.from_dict(d["model"]), TrainConfig(**train),
-                   d.get("about", ""))
+                   d.get("about", ""), d.get("purpose", ""))
 
-    def override(self, **settings) -> "Recipe":
+    def override(self, *, nulls: bool = False, **settings) -> "Recipe":
         """A copy with some settings replaced: a :class:`TrainConfig` or :class:`RenderConfig` field,
-        ``occupancy.<field>`` or a setting of the field family (``width``); ``None`` values are ignored."""
+        ``occupancy.<field>`` or a setting of the field family (``width``); ``None`` values are ignored unless
+        ``nulls`` (a ``--set key=null``)."""
         out = self.copy()
-        for key, value in ((k, v) for k, v in settings.items() if v is not None):
+        for key, value in ((k, v) for k, v in settings.items() if v is not None or nulls):
             if key in TrainConfig.__dataclass_fields__:
                 setattr(out.train, key, value)
             elif key in RenderConfig.__dataclass_fields__ and key != "occupancy":
@@ -108,7 +111,7 @@ class Recipe:
         full = dataclasses.asdict(self.model.field_config(self.dim))
         d["model"]["field_args"] = {k: v for k, v in full.items() if k != "dim"}
         d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads")}
-        return {k: v for k, v in d.items() if k not in ("name", "about")}
+        return {k: v for k, v in d.items() if k not in ("name", "about", "purpose")}
 
     def validate(self) -> "Recipe":
         self.model.validate(self.dim)
@@ -132,8 +135,22 @@ class Recipe:
                 f"{budget}, batch {t.batch_rays}, lr {t.lr:g} -> {t.lr_final:g}{losses}")
 
 
+PURPOSE = {
+    "grid-2d": "the default for 2D data: the most accurate in seconds",
+    "vanilla-2d": "NeRF's MLP: the reference architecture, for comparisons rather than speed",
+    "hashgrid-2d": "instant-ngp's hash grid with tiny networks",
+    "hashlinear-2d": "a hash grid decoded linearly: grid-2d's accuracy with a sixth of its parameters",
+    "grid-3d": "the default for 3D data",
+    "hashlinear-3d": "grid-3d's model in a hash grid decoded linearly, with far fewer parameters",
+    "vanilla-3d": "NeRF's MLP with its fine pass: the reference architecture",
+    "hashgrid-3d": "instant-ngp's hash grid with tiny networks",
+    "pixelnerf-2d": "2D pixelNeRF, trained across scenes by `mitnerf experiment pixelnerf`",
+}
+
+
 def _r(name, dim, field, args, render, train, about) -> Recipe:
-    return Recipe(name, dim, ModelConfig(field, args, RenderConfig(**render)), TrainConfig(**train), about)
+    return Recipe(name, dim, ModelConfig(field, args, RenderConfig(**render)), TrainConfig(**train), about,
+                  PURPOSE[name])
 
 
 _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock decides, not the step count
@@ -149,8 +166,9 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "losses, free space and solid matter where the data has depth (free space from alpha too), 10 s: the default "
        "for 2D datasets"),
     _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4, mode="native"), dict(n_coarse=64),
-       dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=1024),
-       "NeRF MLP 4 x 64, L = 8, 3000 steps"),
+       dict(time_budget=10.0, lr=5e-3, lr_final=2e-4, batch_rays=1024, **_BUDGET),
+       "NeRF MLP 4 x 64, L = 8, 10 s: the reference architecture, for comparisons at equal time (it needs minutes "
+       "to match a grid: --time-budget 300)"),
     _r("hashgrid-2d", 2, "hashgrid", dict(n_levels=8, log2_hashmap_size=14, hidden=16, geo_features=7, mode="tensor"),
        dict(n_coarse=48),
        dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, **_BUDGET),
@@ -185,8 +203,9 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "parameters against grid-3d's 27.9 M at 129^3"),
     _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4, mode="native"),
        dict(n_coarse=64, n_fine=32),
-       dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=2048),
-       "NeRF MLP 4 x 64, L = 10, hierarchical 64 + 32, 3000 steps"),
+       dict(time_budget=60.0, lr=5e-3, lr_final=2e-4, batch_rays=2048, **_BUDGET),
+       "NeRF MLP 4 x 64, L = 10, hierarchical 64 + 32, 60 s: the reference architecture, for comparisons at equal "
+       "time"),
     _r("hashgrid-3d", 3, "hashgrid", dict(n_levels=12, log2_hashmap_size=16, base_resolution=16, max_resolution=512,
                                           mode="tensor"),
        dict(n_coarse=48, occupancy=dict(enabled=True, resolution=64, march_bins=256)),

@@ -30,18 +30,6 @@ def colorize_depth(depth: np.ndarray, near: float | None = None, far: float | No
     return np.where(hit[..., None], rgb, 0.0).astype(np.float32)
 
 
-def contact_sheet(images: np.ndarray, columns: int = 8, pad: int = 2) -> np.ndarray:
-    """``[n, H, W, 3]`` -> one grid image with ``columns`` images per row."""
-    n, H, W = images.shape[:3]
-    rows = int(np.ceil(n / columns))
-    sheet = np.ones((rows * (H + pad) + pad, columns * (W + pad) + pad, 3), np.float32)
-    for k in range(n):
-        r, c = divmod(k, columns)
-        y, x = pad + r * (H + pad), pad + c * (W + pad)
-        sheet[y:y + H, x:x + W] = images[k]
-    return sheet
-
-
 def save_image(path: str | Path, image: np.ndarray, scale: int = 1) -> Path:
     """Save a float [0, 1] (or uint8) image, optionally scaled up by pixel repetition."""
     import imageio.v3 as iio
@@ -55,10 +43,50 @@ def save_image(path: str | Path, image: np.ndarray, scale: int = 1) -> Path:
     return path
 
 
-def split_figures(split, name: str, out: Path, background, near=None, far=None) -> list[Path]:
-    """Colour and depth strips (2D) or sheets (3D) of one split."""
-    tile, scale = (views_strip, 2) if split.cameras.dim == 2 else (contact_sheet, 1)
-    paths = [save_image(out / f"{name}_views.png", tile(split.target(background)), scale)]
+MAX_VIEWS = 6
+"""Views a figure shows at most (3D: evenly spread over the split; 2D views are narrow: every view of a strip)."""
+MAX_PIXELS = 4096
+"""The longest side of any picture mitnerf writes."""
+
+
+def pick_views(n: int, most: int = MAX_VIEWS) -> np.ndarray:
+    """Indices of at most ``most`` views evenly spread over ``n``."""
+    return np.unique(np.linspace(0, n - 1, min(n, most)).round().astype(int))
+
+
+def compare_figure(path: str | Path, rows: list[tuple[str, np.ndarray]], title: str, names=None) -> Path:
+    """A labelled grid: one row per ``(label, images [n, H, W, 3])`` (3D: at most :data:`MAX_VIEWS` views a row,
+    each a column named by ``names``; 2D: each row one strip of every view), the figure's ``title`` above; at
+    most :data:`MAX_PIXELS` on its longer side."""
+    from .panels import pyplot, save
+
+    n, H, W = rows[0][1].shape[:3]
+    strips = W == 1
+    cols = 1 if strips else len(pick_views(n))
+    keep = np.arange(n) if strips else pick_views(n)
+    aspect = (n * 4 / H) if strips else W / H
+    cell_w = min(3.2, 14.0 / cols) if not strips else min(12.0, max(4.0, 0.02 * n * 4))
+    cell_h = min(3.2, cell_w / aspect) if not strips else 1.6
+    dpi = min(110, MAX_PIXELS / max(cell_w * cols + 1.2, cell_h * len(rows) + 0.6))
+    fig, axes = pyplot().subplots(len(rows), cols, figsize=(cell_w * cols + 1.2, cell_h * len(rows) + 0.6),
+                                  squeeze=False)
+    for (label, images), axs in zip(rows, axes):
+        tiles = [views_strip(images, 1)] if strips else [images[k] for k in keep]
+        for j, (ax, tile) in enumerate(zip(axs, tiles)):
+            ax.imshow(np.clip(tile, 0, 1), aspect="auto" if strips else "equal", interpolation="nearest")
+            ax.set_xticks([]), ax.set_yticks([])
+            if j == 0:
+                ax.set_ylabel(label, fontsize=9)
+            if label == rows[0][0]:
+                ax.set_title(f"{len(images)} views" if strips else (names[keep[j]] if names else f"view {keep[j]}"),
+                             fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    return save(fig, path, dpi=dpi, rect=(0, 0, 1, 0.97))
+
+
+def split_figures(split, name: str, out: Path, background, near=None, far=None, title: str = "") -> list[Path]:
+    """The colour and (where known) depth of a split's views, labelled (:func:`compare_figure`)."""
+    rows = [(f"{name} views", split.target(background))]
     if split.depth is not None:
-        paths.append(save_image(out / f"{name}_depth.png", tile(colorize_depth(split.depth, near, far)), scale))
-    return paths
+        rows.append(("depth", colorize_depth(split.depth, near, far)))
+    return [compare_figure(out / f"{name}_views.png", rows, f"{title}: {name} split, {len(split)} views")]

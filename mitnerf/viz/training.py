@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .panels import density_image, density_panel, pyplot, save
-from .strips import colorize_depth, contact_sheet, save_image, views_strip
+from .strips import colorize_depth, compare_figure
 
 
 def plot_curves(history: dict, path: str | Path, title: str = "") -> Path:
@@ -30,16 +30,14 @@ def save_density(density, bound: float, dim: int, path: str | Path, outline=None
     return save(fig, path)
 
 
-def save_renders(renders: dict, split, background, out: Path, near=None, far=None, prefix: str = "test") -> list[Path]:
-    """Prediction beside ground truth (colour and depth). 2D: strips stacked; 3D: sheets."""
+def save_renders(renders: dict, split, background, out: Path, near=None, far=None, prefix: str = "test",
+                 title: str = "") -> list[Path]:
+    """The model's colour and depth beside the ground truth's, and their difference, on a few of the split's views
+    (:func:`~.strips.compare_figure`)."""
     depth = np.where(renders["opacity"] > 0.5, renders["depth"] / np.maximum(renders["opacity"], 1e-6), np.inf)
-    gt_depth = split.depth if split.depth is not None else np.full(depth.shape, np.inf)
-    tile, gap, scale = (views_strip, 4, 2) if split.cameras.dim == 2 else (contact_sheet, 0, 1)
-
-    def stack(truth, pred):                             # truth above prediction, ``gap`` white rows between
-        truth, pred = tile(truth), tile(pred)
-        return np.concatenate([truth, np.ones((gap,) + truth.shape[1:], np.float32), pred], 0)
-
-    col = stack(split.target(background), np.clip(renders["rgb"], 0, 1))
-    dep = stack(colorize_depth(gt_depth, near, far), colorize_depth(depth, near, far))
-    return [save_image(out / f"{prefix}_views.png", col, scale), save_image(out / f"{prefix}_depth.png", dep, scale)]
+    truth, model = split.target(background), np.clip(renders["rgb"], 0, 1)
+    rows = [("ground truth", truth), ("model", model), ("error x4", np.clip(4 * np.abs(model - truth), 0, 1))]
+    if split.depth is not None:
+        rows.append(("true depth", colorize_depth(split.depth, near, far)))
+    rows.append(("model depth", colorize_depth(depth, near, far)))
+    return [compare_figure(out / f"{prefix}_views.png", rows, f"{title}: {prefix} views")]

@@ -27,16 +27,18 @@ def ring(data, k: int) -> list:
 @examples(1.25)
 @given(data=st.data())
 def test_polygon_files(base, data):
-    kind = data.draw(st.sampled_from(["open", "self-intersecting", "few points", "non-finite", "strings", "nested",
+    kind = data.draw(st.sampled_from(["pixel units", "self-intersecting", "few points", "non-finite", "strings", "nested",
                                       "repeated vertex", "collinear", "json", "not points", "name", "too many"]),
                      label="kind")
     k = data.draw(st.integers(4, 9), label="points")
     pts = ring(data, k)
     wrap = data.draw(st.booleans(), label="as object")
     name = None
-    if kind == "open":
-        pts = pts[:-1]
-        desc = f"open ring of {k}"
+    if kind == "pixel units":                   # an outline far outside the unit frame (an open one is closed)
+        scale = data.draw(st.sampled_from([10.0, 100.0, 400.0]), label="scale")
+        pts = [[x * scale, y * scale] for x, y in pts] if data.draw(st.booleans(), label="closed") else \
+            [[x * scale, y * scale] for x, y in pts[:-1]]
+        desc = f"ring of {k} points at {scale:g} times the unit frame"
     elif kind == "self-intersecting":
         i = data.draw(st.integers(0, k - 2), label="swap")
         pts = pts[:-1]

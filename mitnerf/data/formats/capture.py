@@ -6,12 +6,12 @@ Every check ends in one :class:`~mitnerf.errors.DataError` line (:mod:`.common`'
 from __future__ import annotations
 
 import re
-import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import ConfigError, DataError, MitnerfError
+from ...errors import ConfigError, DataError, MitnerfError, Note
 from ..cameras import Cameras
 from ..dataset import Split, box_downscale
 from ..lens import COEFFICIENTS, fold_radius, jacobian, undistort
@@ -109,10 +109,11 @@ def absent(paths: list[Path]) -> list[int]:
 
 
 def warn_skipped(where: str, missing: list, total: int) -> None:
-    """The one line on stderr that says how many listed frames were skipped for want of their image."""
+    """The one note (:class:`~mitnerf.errors.Note`) that says how many listed frames were skipped for want of
+    their image."""
     if missing:
-        print(f"mitnerf: warning: {where}: {len(missing)} of {total} frames have no image file (the first: "
-              f"{missing[0]}); skipped them", file=sys.stderr)
+        warnings.warn(f"{where}: {len(missing)} of {total} frames have no image file (the first: {missing[0]}); "
+                      "skipped them", Note, stacklevel=2)
 
 
 def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] | None = None,
