@@ -54,20 +54,41 @@ def _signals_raise():
         signal.signal(signal.SIGTERM, old)
 
 
+class _NotesFirst:
+    """The command's stdout, which prints the notes heard so far (to stderr, one line each) before its first line:
+    notes come once the inputs are checked and the work begins, never beside a refusal's one line."""
+
+    def __init__(self, out, notes: list):
+        self._out, self.notes = out, notes
+
+    def flush_notes(self) -> None:
+        while self.notes:
+            print(f"mitnerf: note: {self.notes.pop(0)}", file=sys.stderr, flush=True)
+
+    def write(self, text: str) -> int:
+        self.flush_notes()
+        return self._out.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self._out, name)
+
+
 def main(argv: list[str] | None = None) -> int:
     for stream in (sys.stdout, sys.stderr):         # a folder name that is not UTF-8 still prints
         with contextlib.suppress(AttributeError, ValueError):
             stream.reconfigure(errors="backslashreplace")
+    out = _NotesFirst(sys.stdout, [])
     try:
-        with _signals_raise(), warnings.catch_warnings():
-            warnings.simplefilter("always", Note)             # a Note: one line; other warnings as usual
+        with _signals_raise(), warnings.catch_warnings(), contextlib.redirect_stdout(out):
+            warnings.simplefilter("always", Note)             # a Note waits for the work; other warnings as usual
             show = warnings.showwarning
-            warnings.showwarning = lambda message, category, *a, **k: print(f"mitnerf: note: {message}",
-                                                                            file=sys.stderr) \
+            warnings.showwarning = lambda message, category, *a, **k: out.notes.append(str(message)) \
                 if issubclass(category, Note) else show(message, category, *a, **k)
             args = build_parser().parse_args(argv)
             set_variant()
-            return int(args.run(args) or 0)
+            status = int(args.run(args) or 0)
+            out.flush_notes()
+            return status
     except MitnerfError as exc:
         print(f"mitnerf: error: {exc}", file=sys.stderr)
         return 2
