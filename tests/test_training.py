@@ -234,4 +234,4 @@ def test_a_recipe_at_fixed_steps_has_no_clock():
     assert (r.train.iters, r.train.time_budget, r.train.seed, r.name) == (300, None, 3, "grid-2d+")
     same_steps = get_recipe("pixelnerf-2d").at_steps(8000)
     assert same_steps.train.time_budget is None and same_steps.name == "pixelnerf-2d+"
-    assert get_recipe("vanilla-2d").at_steps(3000).name == "vanilla-2d"      # already 3000 steps, no clock
+    assert r.at_steps(300).name == "grid-2d+"                                 # marked once, not "grid-2d++"

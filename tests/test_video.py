@@ -132,7 +132,7 @@ def test_video_cli_writes_videos_mesh_and_chamfer(tiny_checkpoint, tmp_path, cap
 
     out = tmp_path / "video"
     assert video_cli(["--checkpoint", str(tiny_checkpoint), "--out", str(out), "--frames", "4", "--image-size", "12",
-                      "--level", "auto", "--mesh-resolution", "20", "--chamfer-points", "2000"]) == 0
+                      "--level", "auto", "--mesh-resolution", "20"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     assert re.fullmatch(r"video 4 frames 12x12 in \S+ s \(\S+ frames/s\)", lines[-1])
     assert any(line.startswith("chamfer ") and "vase.ply" in line for line in lines)

@@ -17,7 +17,7 @@ from ..scenes.looks import MATERIALS
 from ..scenes.registry import get_scene
 from ..settings import setting, show_value
 from ..viz.rigs import plot_rig_2d, plot_rig_3d
-from ..viz.strips import split_figures
+from ..viz.views import split_figures
 from .command import add_command, options, parse
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from .._io import Output, json_text
 from ..errors import MitnerfError
-from ..geometry import LEVEL, chamfer_distance, extract_mesh
+from ..geometry import CHAMFER_RESOLUTION, LEVEL, extract_mesh, field_chamfer
 from ..scenes.objects3d import OBJECTS_3D
 from ..scenes.registry import get_scene
 from ..train.checkpoint import load_checkpoint
@@ -50,8 +50,6 @@ class VideoCommand:
     10-30, so level 10 cuts holes in them."""
     mesh_resolution: int = setting(128, lo=2, hi=1024, flag="--mesh-resolution", unit="nodes per side")
     """Marching-cubes grid of the mesh."""
-    chamfer_points: int = setting(100_000, lo=1, hi=10 ** 7, flag="--chamfer-points")
-    """Surface samples per mesh for the Chamfer distance."""
     backend: str | None = setting(None, choices=("drjit", "torch"), flag="--backend", shown="the checkpoint's")
     """Engine that renders."""
 
@@ -80,7 +78,7 @@ def run(args) -> int:
     with target.staged() as tmp:
         video = orbit_video(model.backend, cfg, tmp, tuple(model.recipe.model.render.background))
         if args.mesh:
-            write_mesh_outputs(model, tmp, level, args.mesh_resolution, args.chamfer_points, cfg)
+            write_mesh_outputs(model, tmp, level, args.mesh_resolution, cfg)
     for name in ("color.gif", "color.mp4", "depth.gif", "depth.mp4", "mesh.ply", "mesh.png", "chamfer.json"):
         if (target.path / name).exists():
             print(f"wrote {target.path / name}")
@@ -88,8 +86,9 @@ def run(args) -> int:
     return 0
 
 
-def write_mesh_outputs(model, out: Path, level, resolution: int, n_points: int, cfg, progress: bool = True) -> dict:
-    """``mesh.ply``, ``mesh.png`` and (with a ground truth) ``chamfer.json``; prints what it found."""
+def write_mesh_outputs(model, out: Path, level, resolution: int, cfg, progress: bool = True) -> dict:
+    """``mesh.ply``, ``mesh.png`` and (with a ground truth) ``chamfer.json``: the Chamfer distance by mitnerf's one
+    definition (:func:`~mitnerf.geometry.field_chamfer`, what ``fit`` reports); prints what it found."""
     try:
         mesh = extract_mesh(model.backend.density, model.bound, resolution, level, progress=progress)
     except MitnerfError as exc:
@@ -103,7 +102,8 @@ def write_mesh_outputs(model, out: Path, level, resolution: int, n_points: int, 
     if truth is None:
         print("no ground-truth mesh in the checkpoint's dataset metadata: no Chamfer distance")
     else:
-        c = chamfer_distance(mesh, truth, n_points=n_points, seed=0)
+        same = resolution == CHAMFER_RESOLUTION and level == LEVEL          # the mesh mitnerf's Chamfer measures
+        c = field_chamfer(model.backend.density, model.bound, truth, mesh if same else None, progress)
         result.update(truth=str(truth), chamfer=c.chamfer, learned_to_truth=c.a_to_b, truth_to_learned=c.b_to_a,
                       n_points=c.n_points, sampling_floor=c.floor)
         (out / "chamfer.json").write_text(json_text(result))

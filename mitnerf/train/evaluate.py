@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..data.dataset import Dataset, Split
-from ..geometry import LEVEL, chamfer_distance, extract_mesh, mesh_from_ply
+from ..geometry import field_chamfer, mesh_from_ply
 from ..geometry.outline import outline_iou
 from .metrics import depth_error, psnr, ssim
 
@@ -99,11 +99,9 @@ def geometry(backend, dataset: Dataset, bound: float, resolution: int | None = N
         return {"iou": outline_iou(backend.density, np.asarray(meta["polygon"]), bound, resolution or 256)}
     if dataset.dim == 3 and meta.get("mesh"):
         try:
-            truth = mesh_from_ply(meta["mesh"])
-            mesh = extract_mesh(backend.density, bound, resolution or 96, level=LEVEL, progress=False)
+            return {"chamfer": field_chamfer(backend.density, bound, mesh_from_ply(meta["mesh"])).chamfer}
         except Exception:           # noqa: BLE001 - no surface at the level, a moved mesh file: no figure
             return {}
-        return {"chamfer": chamfer_distance(mesh, truth, n_points=30_000).chamfer}
     return {}
 
 

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from .panels import density_image, density_panel, pyplot, save
-from .strips import colorize_depth, compare_figure
+from .strips import colorize_depth
+from .views import compare_figure
 
 
 def plot_curves(history: dict, path: str | Path, title: str = "") -> Path:

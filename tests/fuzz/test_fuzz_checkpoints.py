@@ -207,7 +207,7 @@ def test_checkpoints(base, data):
         out = t / "video"
         if cmd.startswith("video"):
             argv = ["video", "--checkpoint", ck, "--out", out, "--frames", "2", "--image-size", "4",
-                    "--mesh-resolution", "8", "--chamfer-points", "10", "--level", "auto"]
+                    "--mesh-resolution", "8", "--level", "auto"]
         else:
             argv = ["fit", "--resume", ck, *(flag if what == "resume flags" else [])]
         refused(f"checkpoints: {cmd.split()[0]}", f"{src.name}: {desc}", argv, t, out)

@@ -56,7 +56,7 @@ DATASET_FLAGS = {"--views": (True, 0, 100_000, False, ["0"]), "--val": (True, 0,
 VIDEO_FLAGS = {"--frames": (True, 1, 100_000, False), "--image-size": (True, 1, 4096, False, ["1"]),
                "--elevation": (False, -90, 90, False, ["89.95", "-89.95", "90", "-90"]),
                "--radius": (False, 0, 1e4, True), "--fov": (False, 0, 179, True), "--fps": (False, 0, 1000, True),
-               "--mesh-resolution": (True, 2, 1024, False), "--chamfer-points": (True, 1, 10 ** 7, False)}
+               "--mesh-resolution": (True, 2, 1024, False)}
 SWEEP_FLAGS = {"--workers": (True, 1, 256, False), "--threads": (True, 1, 256, False),
                "--seed": (True, 0, 2 ** 31, False)}
 EXPERIMENT_FLAGS = {"--seed": (True, 0, 2 ** 31, False)}
@@ -171,7 +171,7 @@ def test_video_flags(base, data):
     with case_dir() as t:
         out = t / "out"
         argv = ["video", "--checkpoint", base["ckpt3"], "--out", out, "--frames", "2", "--image-size", "4",
-                "--mesh-resolution", "8", "--chamfer-points", "10", "--level", "auto", *as_args(data, flag, value)]
+                "--mesh-resolution", "8", "--level", "auto", *as_args(data, flag, value)]
         refused("command-line values: video", f"{flag} {value!r}", argv, t, out)
 
 

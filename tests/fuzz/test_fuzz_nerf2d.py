@@ -35,7 +35,7 @@ def test_valid_inputs_in_unicode_paths_with_spaces_work(base):
                                            "--val", "0", "--test", "1", "--image-size", "4", "--spp", "1"])
             assert rc == 0, err
         rc, stdout, err, _ = run_main(["video", "--checkpoint", base["ckpt3"], "--out", t / "vïdeo ✓", "--frames",
-                                       "2", "--image-size", "4", "--mesh-resolution", "8", "--chamfer-points", "10",
+                                       "2", "--image-size", "4", "--mesh-resolution", "8",
                                        "--level", "auto"])
         assert rc == 0, err
     from mitnerf.data.formats import load_dataset

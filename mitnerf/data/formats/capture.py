@@ -10,6 +10,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from ...errors import ConfigError, DataError, MitnerfError, Note
 from ..cameras import Cameras
@@ -136,8 +137,11 @@ def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] 
         raise DataError(f"{where}: downscale {downscale} leaves no pixel of {W} x {H} views; choose a smaller one")
     check_memory(len(paths) * h * w, where)
     color, alpha = np.empty((len(paths), h, w, 3), np.float32), np.empty((len(paths), h, w), np.float32)
-    for i, p in enumerate(paths):
+    for i, p in enumerate(tqdm(paths, desc=f"read {Path(where).name}", unit="view", delay=1, leave=False)):
         rgba = as_rgba(read_image(p))
+        if rgba.shape[:2] != (H, W):                # replaced by another image since its header was read
+            raise DataError(f"{p} is now {rgba.shape[1]} x {rgba.shape[0]} pixels, not the {W} x {H} its header "
+                            "said a moment ago: it changed while it was read; run again once it is written")
         if masks is not None:
             m = as_rgba(read_image(masks[i]))
             if m.shape[:2] != (H, W):
