@@ -2,8 +2,8 @@
 
     python examples/stability.py [--quick] [--out out/experiments/stability] [--seed 0]
 
-Writes CSV files, PNG figures and report.md (see `mitnerf.experiments`); the default
-size takes 8 minutes on 2 cores, `--quick` about 1-2 minutes.
+Writes CSV files, PNG figures and report.md (see `mitnerf.experiments`); how long the default size
+takes is printed at its end; `--quick` is a smoke run of a few steps.
 """
 
 import sys
