@@ -4,7 +4,6 @@ test views, absent frames, and the real fern and fox (skipped with one line when
 
 import warnings
 
-import json
 from pathlib import Path
 
 import numpy as np

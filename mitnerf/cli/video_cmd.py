@@ -103,12 +103,17 @@ def write_mesh_outputs(model, out: Path, level, resolution: int, cfg, progress: 
         print("no ground-truth mesh in the checkpoint's dataset metadata: no Chamfer distance")
     else:
         same = resolution == CHAMFER_RESOLUTION and level == LEVEL          # the mesh mitnerf's Chamfer measures
-        c = field_chamfer(model.backend.density, model.bound, truth, mesh if same else None, progress)
-        result.update(truth=str(truth), chamfer=c.chamfer, learned_to_truth=c.a_to_b, truth_to_learned=c.b_to_a,
-                      n_points=c.n_points, sampling_floor=c.floor)
-        (out / "chamfer.json").write_text(json_text(result))
-        note = str(c)
-        print(f"{note} against {truth.name}")
+        try:
+            c = field_chamfer(model.backend.density, model.bound, truth, mesh if same else None, progress)
+        except MitnerfError as exc:
+            c = None
+            print(f"no Chamfer distance: it measures the surface at density {LEVEL:g}, and {exc}")
+        if c is not None:
+            result.update(truth=str(truth), chamfer=c.chamfer, learned_to_truth=c.a_to_b, truth_to_learned=c.b_to_a,
+                          n_points=c.n_points, sampling_floor=c.floor)
+            (out / "chamfer.json").write_text(json_text(result))
+            note = str(c)
+            print(f"{note} against {truth.name}")
     plot_mesh_comparison(mesh, truth, out / "mesh.png", texture, note=note, elevation=cfg.elevation,
                          distance=cfg.radius, fov=cfg.fov)
     return result

@@ -201,7 +201,8 @@ def test_checkpoints(base, data):
                     desc, fn = "a dataset folder", lambda: shutil.copytree(base["nerf2d"], ck)
             else:
                 flag = data.draw(st.sampled_from([["--lr", "0.01"], ["--field", "grid"], ["--recipe", "vanilla-3d"],
-                                                  ["--auto"], ["--set", "lr=0.1"], ["--iters", "5"]]), label="flag")
+                                                  ["--auto"], ["--set", "lr=0.1"], ["--samples", "8"],
+                                                  ["--out", "elsewhere"]]), label="flag")
                 desc, fn = f"--resume with {' '.join(flag)}", lambda: None
         fn()
         out = t / "video"
