@@ -15,7 +15,7 @@ import sys
 
 from .._variant import set_variant
 from ..errors import ConfigError, MitnerfError, Terminated, os_error_line
-from . import data_cmds, experiment_cmd, fit_cmd, video_cmd
+from . import data_cmds, experiment_cmd, fit_cmd, poses_cmd, video_cmd
 
 
 class Parser(argparse.ArgumentParser):
@@ -33,7 +33,7 @@ class Parser(argparse.ArgumentParser):
 def build_parser() -> Parser:
     parser = Parser(prog="mitnerf", description=" ".join(__doc__.split("\n\n")[0].split()))
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for module in (data_cmds, fit_cmd, video_cmd, experiment_cmd):
+    for module in (data_cmds, poses_cmd, fit_cmd, video_cmd, experiment_cmd):
         module.register(sub)
     return parser
 
