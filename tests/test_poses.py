@@ -21,7 +21,7 @@ from mitnerf.data.formats import load_dataset
 from mitnerf.data.rig import look_at_3d
 
 RING = 24
-"""Views on the ring (15 degrees apart, elevation 25, radius 3.5, 200 px, 40 degree field of view)."""
+"""Views on the ring (15 degrees apart, elevation 25, radius 3.5, 300 px, 40 degree field of view)."""
 
 
 def needs_pycolmap():
@@ -57,7 +57,7 @@ def ring(tmp_path_factory):
     from mitnerf.data.rig import RigConfig
     from mitnerf.scenes.gt_render import RenderSettings
 
-    ds = cached_dataset("brick_table", RigConfig(dim=3, n_train=1, n_val=1, n_test=RING, resolution=200, seed=0),
+    ds = cached_dataset("brick_table", RigConfig(dim=3, n_train=1, n_val=1, n_test=RING, resolution=300, seed=0),
                         RenderSettings(spp=16))
     folder = tmp_path_factory.mktemp("photos")
     views = ds["test"]
@@ -71,7 +71,8 @@ def test_poses_recovers_the_cameras_of_our_renders(ring, tmp_path, capsys):
     folder, truth, focal = ring
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     out = tmp_path / "data"
-    assert main(["poses", "--images", str(folder), "--out", str(out), "--camera-model", "SIMPLE_PINHOLE"]) == 0
+    assert main(["poses", "--images", str(folder), "--out", str(out), "--camera-model", "SIMPLE_PINHOLE",
+                 "--downscale", "2"]) == 0
     printed = capsys.readouterr().out.splitlines()
     assert [line.split(":")[1].strip() for line in printed[1:4]] == ["features", "matching (exhaustive)", "mapping"]
     assert printed[-1].startswith(f"wrote {out} ({RING} of {RING} images posed")
@@ -80,14 +81,16 @@ def test_poses_recovers_the_cameras_of_our_renders(ring, tmp_path, capsys):
     header = json.loads((out / "transforms.json").read_text())
     assert header["camera_model"] == "PINHOLE" and header["ply_file_path"] == "sparse_pc.ply"
     names = [f["file_path"] for f in header["frames"]]
-    assert names == [f"images/{i:03d}.png" for i in range(RING)]
+    assert names == [f"images_2/{i:03d}.png" for i in range(RING)]                    # 150 x 150, box-filtered
+    assert (header["w"], header["h"], header["cx"], header["cy"]) == (150, 150, 75.0, 75.0)
     poses = np.array([f["transform_matrix"] for f in header["frames"]])
     e = pose_errors(poses, truth)
     assert e.rotation.max() < 0.5                                  # the issue's goal, degrees
     assert e.position.max() < 0.01 * 3.5                          # 1 % of the ring's radius
-    assert header["fl_x"] == pytest.approx(focal, rel=0.01)
+    assert header["fl_x"] == pytest.approx(focal / 2, rel=0.01)
     ds = load_dataset(out)                                        # what `mitnerf fit` reads: every 8th held out
     assert {k: len(v) for k, v in ds.splits.items()} == {"train": RING - RING // 8, "test": RING // 8}
+    assert ds["test"].color.shape == (RING // 8, 150, 150, 3)
     assert ds.meta["layout"] == "around" and len(ds.meta["bounds"]) == RING
     assert 0 < ds.near < 3.5 - 1.0 and ds.far > 3.5                # the brick lies within 1 of the origin
     centres = np.concatenate([s.cameras.origins for s in ds.splits.values()])

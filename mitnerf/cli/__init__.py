@@ -1,5 +1,6 @@
-"""mitnerf: neural radiance fields on a CPU. Render a ground truth with Mitsuba 3 (`dataset`), fit a field to
-it or to your own data (`fit`), look at both (`show`, `video`), and run the experiments (`experiment`, `sweep`).
+"""mitnerf: neural radiance fields on a CPU. Render a ground truth with Mitsuba 3 (`dataset`) or pose your own
+photographs (`poses`), fit a field to either (`fit`), look at both (`show`, `video`), and run the experiments
+(`experiment`, `sweep`).
 
 Every bad input and every file-system failure (a full disk, a read-only folder) ends in one line on stderr
 (``mitnerf: error: ...``, naming the problem and the fix) and exit status 2, with nothing written. A training run

@@ -27,9 +27,11 @@ The folder written (:func:`pose_capture`)::
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import shutil
+import signal
 import sys
 import threading
 import time
@@ -76,9 +78,9 @@ class SfmConfig:
     max_image_size: int = setting(1600, lo=64, hi=16384, flag="--max-image-size", unit="pixels")
     """Longest side the features are found at (larger images are shrunk for this stage only)."""
     max_features: int = setting(8192, lo=100, hi=100_000, flag="--max-features", unit="per image")
-    """Most SIFT features kept per image."""
+    """Most SIFT keypoints found per image (COLMAP's max_num_features; each may carry two orientations)."""
     min_registered: float = setting(0.5, lo=0, hi=1, flag="--min-registered", unit="fraction")
-    """Refuse the result when fewer than this fraction of the images (and fewer than 3) are registered."""
+    """Refuse the result when fewer than this fraction of the images are registered (fewer than 3: always)."""
     downscale: int = setting(1, lo=1, hi=64, flag="--downscale")
     """Write the images N times smaller (images_N/, box-filtered) and name them in transforms.json."""
     seed: int = setting(0, lo=0, hi=2 ** 31 - 1, flag="--seed")
@@ -89,12 +91,18 @@ class SfmConfig:
 
 
 def need_pycolmap():
-    """The pycolmap module, or one line that says how to install it."""
+    """The pycolmap module, or one line that says how to install it. Its first import installs glog's crash handler
+    for SIGTERM too (a stack dump, then abort): Python's own handlers for SIGINT and SIGTERM are put back, so that
+    they end the command in one line."""
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         import pycolmap
     except ImportError:
         raise EnvironmentProblem("`mitnerf poses` needs pycolmap (COLMAP's algorithms): pip install -e .[poses]") \
             from None
+    for sig, handler in handlers.items():
+        with contextlib.suppress(ValueError, TypeError):        # not the main thread; a handler set outside Python
+            signal.signal(sig, handler)
     return pycolmap
 
 
