@@ -6,19 +6,23 @@
   a forward-facing capture) and, beside it, the deepest of LLFF's depth bounds.
 * ``poses/renders``: our own renders exported without poses (``brick_table``, a ring of views, PNGs over white):
   every camera within 0.5 degrees, with the default lens model (SIMPLE_RADIAL) and with SIMPLE_PINHOLE (theirs).
-* ``poses/fit`` (``--fit-budget S``): ``mitnerf fit --time-budget S`` on our poses and on the true ones (LLFF's;
-  the renders' truth mapped into the recovered world by the same similarity), each evaluated on its own held-out
-  views (every 8th image, the same photos in both): the goal is within 0.5 dB.
+* ``poses/fit/fern``, ``poses/fit/renders`` (``--fit-budget S``, after a run without it): ``mitnerf fit
+  --time-budget S`` on the folders that run posed and on the true poses (LLFF's folder; the renders' truth moved
+  into the recovered world by the similarity of the centres, pinhole with the true focal length), each evaluated
+  on its own held-out views (every 8th image: the same photographs in both): the goal is within 0.5 dB.
 
-    python benchmarks/poses.py [--fern DIR] [--out DIR] [--fit-budget S] [--no-fern] [--no-renders]
+    python benchmarks/poses.py [--fern DIR] [--out DIR] [--no-fern] [--no-renders]
+    python benchmarks/poses.py --fit-budget S [--out DIR]
 
-Last line: ``poses: fern <k>/<n> registered, centres <e> % of the spread, <t> s; renders <d> deg``.
+Last line: ``poses: fern <k>/<n> registered, centres <e> % of the spread, <t> s; renders <d> deg`` (with
+``--fit-budget``: ``poses: fit fern <gap> dB; fit renders <gap> dB``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -37,11 +41,12 @@ RING = dict(n=40, size=400)
 """The renders: views on the ring (9 degrees apart, elevation 25, radius 3.5) and their size in pixels."""
 
 
-def cli(*args: str) -> tuple[str, float]:
-    """``python -m mitnerf ARGS`` from the repository: (its stdout, seconds); stops the benchmark on a failure."""
+def cli(*args: str, ok=(0,)) -> tuple[str, float]:
+    """``python -m mitnerf ARGS`` from the repository: (its stdout, seconds); stops the benchmark on an exit status
+    not in ``ok``."""
     t = time.perf_counter()
     run = subprocess.run([sys.executable, "-m", "mitnerf", *map(str, args)], cwd=ROOT, capture_output=True, text=True)
-    if run.returncode != 0:
+    if run.returncode not in ok:
         raise SystemExit(f"`mitnerf {' '.join(map(str, args))}` failed: {run.stderr.strip()[-500:]}")
     return run.stdout, time.perf_counter() - t
 
@@ -79,9 +84,11 @@ def llff_errors(fern: Path, data: Path, downscale: int):
     return pose_errors(poses, truth[index]), spread, len(ours)
 
 
-def psnr(stdout: str) -> float:
-    """The test PSNR of ``mitnerf fit``'s last line."""
-    return float(re.search(r"test PSNR ([0-9.]+) dB", stdout.strip().splitlines()[-1]).group(1))
+def psnr(stdout: str) -> tuple[float, str]:
+    """The test PSNR of ``mitnerf fit``'s last line, and the run's failure (``collapsed: ...``) or ``ok``."""
+    last = stdout.strip().splitlines()[-1]
+    failed = re.search(r"\[([a-z]+: [^\]]*)\]", last)
+    return float(re.search(r"test PSNR ([0-9.]+) dB", last).group(1)), failed.group(1) if failed else "ok"
 
 
 def with_poses(data: Path, truth: np.ndarray, focal: float, out: Path) -> Path:
@@ -104,17 +111,19 @@ def with_poses(data: Path, truth: np.ndarray, focal: float, out: Path) -> Path:
     return out
 
 
-def fern_part(fern: Path, out: Path, budget: float | None) -> str:
+def fern_part(fern: Path, out: Path) -> str:
     from mitnerf.results import record_result
 
     data = out / "fern"
     command = f"mitnerf poses --images {fern}/images_4 --out {data}"
+    load = os.getloadavg()[0]                          # other work on the machine slows COLMAP down
     _, seconds = cli("poses", "--images", fern / "images_4", "--out", data, "--overwrite")
+    load = max(load, os.getloadavg()[0])
     e, spread, registered = llff_errors(fern, data, downscale=4)
     depth = llff_poses(fern, 4)[2]
     worst = float(e.position.max())
-    values = {"registered": registered, "images": 20, "seconds": seconds, "spread": spread, "depth": depth,
-              "position_max": worst, "position_max_pct_spread": 100 * worst / spread,
+    values = {"registered": registered, "images": 20, "seconds": seconds, "load": load, "spread": spread,
+              "depth": depth, "position_max": worst, "position_max_pct_spread": 100 * worst / spread,
               "position_max_pct_depth": 100 * worst / depth,
               "rotation_max_deg": float(e.rotation.max()), "rotation_mean_deg": float(e.rotation.mean()),
               "goal": {"all registered": registered == 20, "centres within 1 %": e.position.max() < 0.01 * spread,
@@ -122,11 +131,10 @@ def fern_part(fern: Path, out: Path, budget: float | None) -> str:
     summary = (f"fern images_4: {registered}/20 registered, camera centres within "
                f"{values['position_max_pct_spread']:.2f} % of LLFF's camera spread "
                f"({values['position_max_pct_depth']:.3f} % of its depth), orientations within "
-               f"{values['rotation_max_deg']:.2f} deg, {seconds:.0f} s (goals: all, 1 %, 60 s)")
+               f"{values['rotation_max_deg']:.2f} deg, {seconds:.0f} s at load {load:.1f} on {os.cpu_count()} cores "
+               "(goals: all, 1 %, 60 s)")
     record_result("poses/fern", values, summary, command, threads=2)
     print(summary)
-    if budget:
-        fit_pair("fern", data, fern, budget, command)
     return f"fern {registered}/20 registered, centres {values['position_max_pct_spread']:.2f} % of the spread, " \
            f"{seconds:.0f} s"
 
@@ -148,7 +156,7 @@ def render_ring(folder: Path) -> tuple[np.ndarray, float]:
     return ds["test"].cameras.poses, float(ds["test"].cameras.fx[0])
 
 
-def renders_part(out: Path, budget: float | None) -> str:
+def renders_part(out: Path) -> str:
     from mitnerf.data.align import pose_errors
     from mitnerf.results import record_result
 
@@ -173,48 +181,66 @@ def renders_part(out: Path, budget: float | None) -> str:
         f"{v['seconds']:.0f} s" for m, v in values.items()) + " (goal: 0.5 deg)"
     record_result("poses/renders", values, summary, " && ".join(commands), threads=2)
     print(summary)
-    if budget:
-        fit_pair("renders", out / "ring_simple_radial", None, budget, commands[0], truth=truth, focal=focal)
     return f"renders {worst:.2f} deg"
 
 
-def fit_pair(name: str, data: Path, llff: Path | None, budget: float, poses_command: str, truth=None,
-             focal=None) -> None:
-    """Test PSNR of a fit on our poses and on the true ones at ``budget`` seconds each (``poses/fit/<name>``)."""
+def fit_pair(name: str, data: Path, other: Path, budget: float) -> str:
+    """Test PSNR of a fit on our poses (``data``) and on the true ones (``other``) at ``budget`` seconds each
+    (``poses/fit/<name>``)."""
     from mitnerf.results import record_result
 
-    other = llff if llff is not None else with_poses(data, truth[[int(Path(n).stem) for n in frames(data)[0]]],
-                                                     focal, data.with_name(data.name + "_true"))
-    got = {}
+    got, status = {}, {}
     for label, folder in (("ours", data), ("true", other)):
-        stdout, _ = cli("fit", "--data", folder, "--time-budget", budget)
-        got[label] = psnr(stdout)
+        stdout, _ = cli("fit", "--data", folder, "--time-budget", budget, ok=(0, 1))    # 1: a collapsed run
+        got[label], status[label] = psnr(stdout)
     gap = got["true"] - got["ours"]
+    notes = "".join(f"; the fit on {k} poses {v}" for k, v in status.items() if v != "ok")
     summary = (f"{name}: fit on our poses {got['ours']:.2f} dB, on the true ones {got['true']:.2f} dB ({gap:+.2f} dB; "
-               f"goal within 0.5) at --time-budget {budget:g}")
-    record_result(f"poses/fit/{name}", {**got, "gap": gap, "budget": budget}, summary,
-                  f"{poses_command} && mitnerf fit --data {data} --time-budget {budget:g} && mitnerf fit --data "
-                  f"{other} --time-budget {budget:g}", threads=2)
+               f"goal within 0.5) at --time-budget {budget:g}{notes}")
+    record_result(f"poses/fit/{name}", {**got, "gap": gap, "budget": budget, "status": status}, summary,
+                  f"python benchmarks/poses.py && mitnerf fit --data {data} --time-budget {budget:g} && mitnerf fit "
+                  f"--data {other} --time-budget {budget:g}", threads=2)
     print(summary)
+    return f"fit {name} {gap:+.2f} dB"
+
+
+def fits_part(fern: Path, out: Path, budget: float) -> list[str]:
+    """The fits on the posed folders an earlier run wrote into ``out``."""
+    lines = []
+    if (out / "fern" / "transforms.json").exists() and fern.is_dir():
+        lines.append(fit_pair("fern", out / "fern", fern, budget))
+    data = out / "ring_simple_radial"
+    if (data / "transforms.json").exists():
+        truth, focal = render_ring(out / "ring_photos")
+        ours = frames(data)[0]
+        lines.append(fit_pair("renders", data, with_poses(data, truth[[int(Path(n).stem) for n in ours]], focal,
+                                                         out / "ring_true"), budget))
+    if not lines:
+        print(f"no posed folders in {out}: run `python benchmarks/poses.py --out {out}` first")
+    return lines
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--fern", type=Path, default=FERN, help="LLFF's fern folder (poses_bounds.npy, images_4/)")
     p.add_argument("--out", type=Path, default=ROOT / "out" / "bench_poses", help="where the posed data go")
-    p.add_argument("--fit-budget", type=float, default=None, help="also fit on our and the true poses (seconds)")
+    p.add_argument("--fit-budget", type=float, default=None,
+                   help="instead, fit on the posed folders of an earlier run and on the true poses (seconds each)")
     p.add_argument("--no-fern", action="store_true")
     p.add_argument("--no-renders", action="store_true")
     a = p.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
+    if a.fit_budget:
+        print("poses: " + "; ".join(fits_part(a.fern, a.out, a.fit_budget)))
+        return 0
     lines = []
     if not a.no_fern:
         if (a.fern / "images_4").is_dir():
-            lines.append(fern_part(a.fern, a.out, a.fit_budget))
+            lines.append(fern_part(a.fern, a.out))
         else:
             print(f"skipped the fern: {a.fern}/images_4 is absent (real data: /work/shared/data)")
     if not a.no_renders:
-        lines.append(renders_part(a.out, a.fit_budget))
+        lines.append(renders_part(a.out))
     print("poses: " + "; ".join(lines))
     return 0
 

@@ -189,8 +189,13 @@ def _cancellable(pycolmap, fn, *args, **kwargs):
     """``fn(*args, cancellation_token=..., **kwargs)`` in a thread, so that Ctrl-C and SIGTERM (which reach only the
     main thread, between Python steps) cancel COLMAP's work and end the command at once."""
     token, result = pycolmap.CancellationToken(), {}
-    worker = threading.Thread(target=lambda: result.setdefault("value", fn(*args, cancellation_token=token,
-                                                                            **kwargs)), daemon=True)
+
+    def work():
+        try:
+            result["value"] = fn(*args, cancellation_token=token, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - reported by the main thread, in one line
+            result["error"] = exc
+    worker = threading.Thread(target=work, daemon=True)
     worker.start()
     try:
         while worker.is_alive():
@@ -199,14 +204,15 @@ def _cancellable(pycolmap, fn, *args, **kwargs):
         token.cancel()
         worker.join()
         raise
-    if "value" not in result and not token.is_cancelled():
-        raise DataError("COLMAP stopped with an error (see the lines above); check the images")
+    if "error" in result:
+        what = " ".join(str(result["error"]).split())[:300]
+        raise DataError(f"COLMAP's {fn.__name__} failed ({type(result['error']).__name__}: {what}); check the images")
     return result.get("value")
 
 
 def _reconstruct(pycolmap, images: Path, names: list[str], work: Path, cfg: SfmConfig, log) -> dict:
     """COLMAP's features, matches and incremental mapping of ``images/names`` (database and models in ``work``)."""
-    pycolmap.logging.minloglevel = 2                   # COLMAP's own chatter off: errors only
+    pycolmap.logging.minloglevel = 3                   # COLMAP's own log off (its failures raise)
     pycolmap.set_random_seed(cfg.seed)
     cpu, db = pycolmap.Device.cpu, work / "database.db"
     reader = pycolmap.ImageReaderOptions()
