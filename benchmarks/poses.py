@@ -41,6 +41,12 @@ RING = dict(n=40, size=400)
 """The renders: views on the ring (9 degrees apart, elevation 25, radius 3.5) and their size in pixels."""
 
 
+def rel(path: Path) -> str:
+    """``path`` as a command names it: relative to the repository where it lies inside."""
+    path = Path(path).resolve()
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+
+
 def cli(*args: str, ok=(0,)) -> tuple[str, float]:
     """``python -m mitnerf ARGS`` from the repository: (its stdout, seconds); stops the benchmark on an exit status
     not in ``ok``."""
@@ -115,7 +121,7 @@ def fern_part(fern: Path, out: Path) -> str:
     from mitnerf.results import record_result
 
     data = out / "fern"
-    command = f"mitnerf poses --images {fern}/images_4 --out {data}"
+    command = f"mitnerf poses --images {rel(fern)}/images_4 --out {rel(data)}"
     load = os.getloadavg()[0]                          # other work on the machine slows COLMAP down
     _, seconds = cli("poses", "--images", fern / "images_4", "--out", data, "--overwrite")
     load = max(load, os.getloadavg()[0])
@@ -165,7 +171,7 @@ def renders_part(out: Path) -> str:
     values, commands = {}, []
     for model in ("SIMPLE_RADIAL", "SIMPLE_PINHOLE"):
         data = out / f"ring_{model.lower()}"
-        commands.append(f"mitnerf poses --images {photos} --out {data} --camera-model {model}")
+        commands.append(f"mitnerf poses --images {rel(photos)} --out {rel(data)} --camera-model {model}")
         _, seconds = cli("poses", "--images", photos, "--out", data, "--camera-model", model, "--overwrite")
         names, poses = frames(data)
         e = pose_errors(poses, truth[[int(Path(n).stem) for n in names]])
@@ -198,8 +204,8 @@ def fit_pair(name: str, data: Path, other: Path, budget: float) -> str:
     summary = (f"{name}: fit on our poses {got['ours']:.2f} dB, on the true ones {got['true']:.2f} dB ({gap:+.2f} dB; "
                f"goal within 0.5) at --time-budget {budget:g}{notes}")
     record_result(f"poses/fit/{name}", {**got, "gap": gap, "budget": budget, "status": status}, summary,
-                  f"python benchmarks/poses.py && mitnerf fit --data {data} --time-budget {budget:g} && mitnerf fit "
-                  f"--data {other} --time-budget {budget:g}", threads=2)
+                  f"python benchmarks/poses.py && mitnerf fit --data {rel(data)} --time-budget {budget:g} && mitnerf "
+                  f"fit --data {rel(other)} --time-budget {budget:g}", threads=2)
     print(summary)
     return f"fit {name} {gap:+.2f} dB"
 
