@@ -2,6 +2,7 @@
 themselves are measured by running the scripts, never here."""
 
 from types import SimpleNamespace
+from pathlib import Path
 
 import pytest
 
@@ -68,3 +69,15 @@ def test_glossy_sweep_keeps_the_rows_of_roughnesses_not_rerun(results):
     assert command == "python benchmarks/glossy_sweep.py && python benchmarks/glossy_sweep.py --roughness-3d 0.25 0.3"
     rows, command = glossy_sweep.merged("glossy/3d", {"0.12": {}, "0.3": {}}, "again")
     assert command == "again"                                                               # nothing kept
+
+
+def test_poses_fit_pair_records_both_fits_and_a_collapsed_one(results, monkeypatch, tmp_path):
+    from benchmarks import poses
+
+    lines = {"ours": "test PSNR 18.38 dB, SSIM 0.5, train 60.0 s, recipe grid-3d (drjit)",
+             "true": "test PSNR 4.78 dB, SSIM 0.001, train 60.0 s, recipe grid-3d [collapsed: constant: x] (drjit)"}
+    monkeypatch.setattr(poses, "cli", lambda *args, ok: ("fit ...\n" + lines[Path(args[2]).name], 60.0))
+    assert poses.fit_pair("fern", tmp_path / "ours", tmp_path / "true", 60) == "fit fern -13.60 dB"
+    entry = load_results()["poses/fit/fern"]
+    assert entry["values"]["status"] == {"ours": "ok", "true": "collapsed: constant: x"}
+    assert "the fit on true poses collapsed" in entry["summary"]

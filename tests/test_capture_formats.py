@@ -206,7 +206,7 @@ def test_a_capture_without_validation_views_trains_and_tests(vase_small, tmp_pat
 def test_the_dataset_command_writes_the_capture_formats(tmp_path, capsys):
     args = ["dataset", "--scene", "vase", "--views", "3", "--val", "0", "--test", "1", "--image-size", "6",
             "--spp", "1"]
-    for fmt in ("llff", "colmap", "idr"):
+    for fmt in ("blender", "nerfstudio", "llff", "colmap", "idr"):   # no empty val split written
         assert main([*args, "--format", fmt, "--out", str(tmp_path / fmt)]) == 0
         assert len(load_dataset(tmp_path / fmt)["train"]) == 3
     capsys.readouterr()

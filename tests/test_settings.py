@@ -15,8 +15,10 @@ from mitnerf.cli.compare_cmd import CompareCommand
 from mitnerf.cli.data_cmds import DatasetCommand, ShowCommand
 from mitnerf.cli.experiment_cmd import ExperimentCommand, SweepCommand
 from mitnerf.cli.fit_cmd import FitCommand, RecipesCommand
+from mitnerf.cli.poses_cmd import PosesCommand
 from mitnerf.cli.video_cmd import VideoCommand
 from mitnerf.data.rig import RigConfig
+from mitnerf.data.sfm import SfmConfig
 from mitnerf.errors import ConfigError
 from mitnerf.experiments import EXPERIMENTS
 from mitnerf.experiments.sweep import Config as SweepConfig
@@ -28,11 +30,11 @@ from mitnerf.train.recipes import RECIPES
 from mitnerf.viz.video import OrbitConfig
 
 FIELD_CONFIGS = [cls for cls, _ in FIELDS.values()]
-CONFIGS = [TrainConfig, RenderConfig, OccupancyConfig, RigConfig, OrbitConfig, SweepConfig, *FIELD_CONFIGS,
+CONFIGS = [TrainConfig, RenderConfig, OccupancyConfig, RigConfig, OrbitConfig, SfmConfig, SweepConfig, *FIELD_CONFIGS,
            *(m.Config for m in EXPERIMENTS.values())]
 COMMANDS = {"dataset": [DatasetCommand, RigConfig], "show": [ShowCommand], "recipes": [RecipesCommand],
             "fit": [FitCommand, TrainConfig, RenderConfig, OccupancyConfig, *FIELD_CONFIGS],
-            "video": [VideoCommand, OrbitConfig], "experiment": [ExperimentCommand],
+            "video": [VideoCommand, OrbitConfig], "poses": [PosesCommand, SfmConfig], "experiment": [ExperimentCommand],
             "sweep": [SweepCommand, SweepConfig], "compare": [CompareCommand]}
 NOT_SETTINGS = {"-h", "--help", "--set", "--recipe", "--field"}
 """Options that choose among declarations rather than set one: help, ``--set KEY=VALUE``, a recipe by name."""

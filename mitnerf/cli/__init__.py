@@ -1,5 +1,6 @@
-"""mitnerf: neural radiance fields on a CPU. Render a ground truth with Mitsuba 3 (`dataset`), fit a field to
-it or to your own data (`fit`), look at both (`show`, `video`), and run the experiments (`experiment`, `sweep`).
+"""mitnerf: neural radiance fields on a CPU. Render a ground truth with Mitsuba 3 (`dataset`) or pose your own
+photographs (`poses`), fit a field to either (`fit`), look at both (`show`, `video`), and run the experiments
+(`experiment`, `sweep`).
 
 Every bad input and every file-system failure (a full disk, a read-only folder) ends in one line on stderr
 (``mitnerf: error: ...``, naming the problem and the fix) and exit status 2, with nothing written. A training run
@@ -16,7 +17,7 @@ import warnings
 
 from .._variant import set_variant
 from ..errors import ConfigError, MitnerfError, Note, Terminated, os_error_line
-from . import compare_cmd, data_cmds, experiment_cmd, fit_cmd, video_cmd
+from . import compare_cmd, data_cmds, experiment_cmd, fit_cmd, poses_cmd, video_cmd
 
 
 class Parser(argparse.ArgumentParser):
@@ -34,7 +35,7 @@ class Parser(argparse.ArgumentParser):
 def build_parser() -> Parser:
     parser = Parser(prog="mitnerf", description=" ".join(__doc__.split("\n\n")[0].split()))
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for module in (data_cmds, fit_cmd, compare_cmd, video_cmd, experiment_cmd):
+    for module in (data_cmds, poses_cmd, fit_cmd, compare_cmd, video_cmd, experiment_cmd):
         module.register(sub)
     return parser
 

@@ -28,8 +28,8 @@ def render_cameras(mi_scene, cams: Cameras, settings: RenderSettings) -> Split:
 
 
 def check_framing(scene: SceneInfo, rig: RigConfig) -> None:
-    """Refuse an object the rig's cameras would stand inside of, or could not see whole (an outline drawn in pixels
-    instead of about [-1, 1], say), with the fix."""
+    """Refuse an object the rig's cameras would stand inside of, or a 2D outline they could not see whole (one drawn
+    in pixels instead of about [-1, 1], say), with the fix."""
     r = scene.polygon.radius() if scene.polygon is not None else scene.radius
     fov = rig.fov if rig.fov is not None else (53.13 if rig.dim == 2 else 40.0)
     seen = rig.radius * np.sin(np.radians(fov / 2))          # the largest circle about the centre a camera sees whole
@@ -37,7 +37,7 @@ def check_framing(scene: SceneInfo, rig: RigConfig) -> None:
     if r >= 0.95 * rig.radius:
         raise DataError(f"{scene.name} reaches {r:.3g} units from the centre and the cameras stand at "
                         f"{rig.radius:g}: they would be inside it; {scale}pass --radius above {1.2 * r:.3g}")
-    if r > 1.02 * seen:
+    if scene.polygon is not None and r > 1.02 * seen:          # (a 3D scene may stand on a table wider than views)
         raise DataError(f"{scene.name} reaches {r:.3g} units from the centre, but cameras at {rig.radius:g} with a "
                         f"{fov:g} degree view see {seen:.3g} of it; {scale}pass --radius "
                         f"{r / np.sin(np.radians(fov / 2)):.3g}")

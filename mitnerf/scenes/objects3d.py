@@ -68,6 +68,18 @@ def vase_texture(width: int = 512, height: int = 256) -> np.ndarray:
     return (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8)
 
 
+def table_texture(size: int = 512, seed: int = 0) -> np.ndarray:
+    """A print that repeats nowhere, ``[size, size, 3]`` uint8 (sRGB): white noise blurred at 1, 2, 4 and 8 texels
+    and summed, each channel stretched to [0, 1]. Structure from motion needs it: SIFT finds blobs at every scale,
+    none alike (the objects are symmetric or print repeating patterns, which COLMAP mistakes for one another)."""
+    from scipy.ndimage import gaussian_filter
+
+    noise = np.random.default_rng(seed).standard_normal((size, size, 3))
+    img = sum(s * gaussian_filter(noise, (s, s, 0), mode="wrap") for s in (1, 2, 4, 8))
+    img = (img - img.min((0, 1))) / np.ptp(img, (0, 1))
+    return (img * 255 + 0.5).astype(np.uint8)
+
+
 def vase_mesh(n_around: int = 160, n_up: int = 120):
     """``(vertices, faces, uv)`` of a surface of revolution, seam column duplicated (u = 0 and 1), ends capped."""
     from scipy.interpolate import PchipInterpolator

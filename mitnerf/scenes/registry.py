@@ -19,14 +19,19 @@ from .._io import cache_entry, digest
 from .._variant import ensure_variant
 from ..errors import DataError
 from .looks import check_look, split_variant, styled_scene, variant_name
-from .objects3d import OBJECTS_3D, build_object
+from .objects3d import OBJECTS_3D, build_object, table_texture
 from .polygon import Polygon, outline_stripes
-from .ply import write_ply
+from .ply import read_ply, write_ply
 
 SCENES_XML = Path(__file__).resolve().parents[2] / "scenes_xml"
 SCENES_2D = ("square", "square_concave", "bunny", "tu")
 SCENE_NAMES = SCENES_2D + OBJECTS_3D
 ASSET_VERSION = "2"  # bump when a builder changes what it writes
+TABLE = "_table"
+"""``<object>_table``: a 3D object standing on a square table with a print that repeats nowhere
+(:func:`~.objects3d.table_texture`), what structure from motion needs (``mitnerf poses``' tests and benchmark)."""
+TABLE_HALF = 1.6
+"""Half the side of the table (world units)."""
 
 
 @dataclass
@@ -133,6 +138,29 @@ def object_3d(name: str) -> SceneInfo:
                      texture=Path(variables["texture"]) if "texture" in variables else None)
 
 
+def on_table(info: SceneInfo) -> SceneInfo:
+    """``info`` (a 3D object of the registry) on the table of :data:`TABLE`, its top at the mesh's lowest point. The
+    mesh stays the object's alone (no Chamfer distance is measured against it)."""
+    top = float(read_ply(info.mesh)["vertices"][:, 2].min())
+
+    def build(tmp: Path) -> None:
+        import imageio.v3 as iio
+
+        iio.imwrite(tmp / "table.png", table_texture())
+        (tmp / "scene.xml").write_text(f"""<scene version="3.0.0">
+    <include filename="{info.xml}"/>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="{TABLE_HALF}"/><translate z="{top!r}"/></transform>
+        <bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+            <string name="filename" value="$table"/></texture></bsdf>
+    </shape>
+</scene>""")
+    folder = cache_entry(f"tables/{info.name}-{digest(ASSET_VERSION, str(info.xml), repr(top))}", build)
+    return dataclasses.replace(info, name=info.name + TABLE, xml=folder / "scene.xml", mesh=None,
+                               variables={**info.variables, "table": str(folder / "table.png")},
+                               radius=float((2 * TABLE_HALF ** 2 + top ** 2) ** 0.5))
+
+
 def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None = None,
               material: str | None = None, env: bool = False, roughness: float | None = None) -> SceneInfo:
     """Resolve a scene: a registry name, a path to an XML file, or a user polygon.
@@ -149,6 +177,10 @@ def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None
     if scene is None:
         raise DataError(f"no scene given; pass one of {', '.join(SCENE_NAMES)} or a polygon")
     name = str(scene)
+    if name.endswith(TABLE) and name[:-len(TABLE)] in OBJECTS_3D:
+        if material or env or roughness is not None:
+            raise DataError(f"{name} is drawn in its plain look; drop --material, --env and --roughness")
+        return on_table(object_3d(name[:-len(TABLE)]))
     base, named_material, named_roughness, named_env = split_variant(name)
     if base in SCENE_NAMES:
         if named_material and material and named_material != material:
@@ -169,5 +201,5 @@ def get_scene(scene: str | Path | None = None, *, polygon=None, kind: str | None
         info.load()  # fail early on malformed XML
         return with_look(info, material or "diffuse", lighting, roughness)
     raise DataError(f"unknown scene {name!r}; choose one of {', '.join(SCENE_NAMES)} (optionally with a look, "
-                    "e.g. bunny_glossy or vase_roughconductor_env), give a path to a Mitsuba XML file, "
-                    "or pass --polygon FILE")
+                    "e.g. bunny_glossy or vase_roughconductor_env) or on a table (brick_table), give a path to a "
+                    "Mitsuba XML file, or pass --polygon FILE")

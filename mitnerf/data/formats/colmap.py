@@ -51,7 +51,7 @@ def model_folder(root: Path) -> Path | None:
     return None
 
 
-def _lens(model: str, params: np.ndarray, where: str) -> np.ndarray:
+def camera_lens(model: str, params: np.ndarray, where: str) -> np.ndarray:
     """``[9]``: fx, fy, cx, cy, k1, k2, p1, p2, k3 of a camera."""
     if model not in PARAMETERS:
         raise DataError(f"{where}: camera model {model} is not one mitnerf reads ({', '.join(PARAMETERS)}); undistort "
@@ -94,9 +94,10 @@ def read_colmap(path: str | Path, downscale: int = 1) -> Dataset:
         raise DataError(f"{where}: the images' cameras have different sizes {sorted(sizes)[:3]}; mitnerf needs one "
                         "resolution: undistort them to one size")
     w0, h0 = sizes.pop()
-    K = np.array([_lens(model.cameras[cid][0], model.cameras[cid][3], f"{where}, camera {cid}") for *_, cid in shots])
+    K = np.array([camera_lens(model.cameras[cid][0], model.cameras[cid][3], f"{where}, camera {cid}")
+                  for *_, cid in shots])
     check_intrinsics(K[:, 0], K[:, 1], K[:, 2], K[:, 3], w0, h0, where)
-    poses = np.array([_pose(q, t, name, where) for name, q, t, _ in shots])
+    poses = np.array([camera_pose(q, t, name, where) for name, q, t, _ in shots])
     check_poses(poses, where)
     H, W = image_size(paths[keep[0]])
     if (H, W) != (h0, w0) and (N == 1 or abs(H - h0 / N) > 1 or abs(W - w0 / N) > 1):
@@ -114,7 +115,7 @@ def read_colmap(path: str | Path, downscale: int = 1) -> Dataset:
     meta["layout"] = layout(poses)
     if N * box > 1:
         meta["downscale"] = N * box
-    bounds = _bounds(cams, model.points, where)
+    bounds = view_bounds(cams, model.points, where)
     if bounds is not None:
         meta["bounds"] = bounds.tolist()
         meta["points_bounds"] = np.percentile(model.points, [0.1, 99.9], axis=0).tolist()
@@ -130,7 +131,7 @@ def read_colmap(path: str | Path, downscale: int = 1) -> Dataset:
     return Dataset({k: views.subset(i) for k, i in split.items()}, float(near), float(far), meta)
 
 
-def _pose(q: np.ndarray, t: np.ndarray, name: str, where: str) -> np.ndarray:
+def camera_pose(q: np.ndarray, t: np.ndarray, name: str, where: str) -> np.ndarray:
     """OpenGL camera-to-world ``[4, 4]`` of a COLMAP world-to-camera ``qvec`` (w, x, y, z) and ``tvec``."""
     norm = np.linalg.norm(q)
     if not (np.isfinite(q).all() and np.isfinite(t).all() and abs(norm - 1) <= 1e-3):
@@ -142,7 +143,7 @@ def _pose(q: np.ndarray, t: np.ndarray, name: str, where: str) -> np.ndarray:
     return M @ FLIP
 
 
-def _bounds(cams: Cameras, points: np.ndarray, where: str) -> np.ndarray | None:
+def view_bounds(cams: Cameras, points: np.ndarray, where: str) -> np.ndarray | None:
     """``[n, 2]`` depth bounds of the points each view sees (None when no view sees any); a view that sees none
     takes the others' extremes."""
     if not len(points) or not np.isfinite(points).all():

@@ -62,6 +62,8 @@ def write_blender(dataset: Dataset, folder: Path) -> None:
     if dataset.dim != 3:
         raise DataError("the Blender format holds 3D datasets; use --format nerf2d or nerfstudio for 2D scenes")
     for name, split in dataset.splits.items():
+        if not len(split):                 # an empty split has no file (a reader refuses one without frames)
+            continue
         (folder / name).mkdir()
         c = split.cameras
         frames = []
