@@ -55,3 +55,29 @@ def test_summarise_gives_mean_and_spread_over_seeds():
     s = {r["L"]: r for r in summarise(rows, ["L"], ("psnr",))}
     assert (s[0]["runs"], s[0]["failed"], s[0]["psnr"], s[0]["psnr_std"]) == (3, 1, 21.0, 1.0)
     assert (s[2]["psnr"], s[2]["psnr_std"], s[2]["psnr_min"]) == (30.0, 0.0, 30.0)
+
+
+def test_window_shop_on_the_reports_own_data(tmp_path):
+    """``--set data=FILE.npz``: a tiny-NeRF file's first 100 views are the pool; each row is scored on view 101
+    (the report's protocol) and on every held-out view (ours); a file without that layout is refused."""
+    import numpy as np
+
+    from mitnerf.data.formats import save_dataset
+    from mitnerf.data.generate import make_dataset
+    from mitnerf.data.rig import RigConfig
+    from mitnerf.errors import DataError
+    from mitnerf.experiments import window_shop
+    from mitnerf.scenes.registry import get_scene
+
+    ds = make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=100, n_val=2, n_test=4, resolution=8), progress=False)
+    npz = save_dataset(ds, tmp_path / "lego.npz", "tiny_nerf")
+    cfg = window_shop.quick()
+    cfg.data, cfg.additions = str(npz), False
+    rows = window_shop.run(cfg, tmp_path / "out")
+    assert [r["row"] for r in rows] == ["7", "8"] and all(np.isfinite(r["psnr_ours"]) for r in rows)
+    assert "view 101" in (tmp_path / "out" / "report.md").read_text()
+    few = type(ds)({"train": ds["train"].subset(slice(0, 20)), "val": ds["val"], "test": ds["test"]}, ds.near, ds.far)
+    small = save_dataset(few, tmp_path / "small.npz", "tiny_nerf")
+    cfg.data = str(small)
+    with pytest.raises(DataError, match="needs 100 training views"):
+        window_shop.run(cfg, tmp_path / "out2")
