@@ -33,13 +33,16 @@ def number(integer: bool = False, lo=None, hi=None, strict_lo: bool = False):
     return parse
 
 
-def background(text: str) -> tuple:
+def background(text: str) -> str | tuple:
+    """``white``, ``black``, ``random`` or ``r,g,b`` (a colour in [0, 1])."""
+    if text in ("white", "black", "random"):
+        return text
     try:
-        values = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}.get(text) or tuple(map(float, text.split(",")))
+        values = tuple(map(float, text.split(",")))
     except ValueError:
         values = ()
     if len(values) != 3 or not all(0.0 <= v <= 1.0 for v in values):
-        raise argparse.ArgumentTypeError(f"expected black, white or r,g,b with values in [0, 1], got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected white, black, random or r,g,b with values in [0, 1], got {text!r}")
     return values
 
 
@@ -77,7 +80,9 @@ OVERRIDES = [
     ("--opacity-weight", "opacity_weight", dict(type=number(False, 0, 1e6)), "weight of the opacity entropy (0: off)"),
     ("--samples", "n_coarse", dict(type=number(True, 1, 4096)), "coarse samples per ray"),
     ("--fine", "n_fine", dict(type=number(True, 0, 4096)), "importance samples per ray (0: no fine pass)"),
-    ("--background", "background", dict(type=background), "black, white or r,g,b"),
+    ("--background", "background", dict(type=background),
+     "white, black, random (a colour per training ray; evaluated over white) or r,g,b (default: the dataset's: "
+     "white for Blender folders and 3D objects, black for 2D and tiny-NeRF)"),
     ("--method", "method", dict(choices=["replay", "autodiff"]), "volume integral"),
     ("--occupancy", "occupancy.enabled", dict(action=argparse.BooleanOptionalAction), "empty-space skipping"),
     ("--width", "width", dict(type=number(True, 2, 1024)), "MLP width"),

@@ -16,7 +16,7 @@ from ..errors import ConfigError, Terminated
 from ..results import load_results
 from ..train.auto import AutoConfig, choose_recipe
 from ..train.checkpoint import checkpoint_bytes, load_checkpoint
-from ..train.fit import check_dataset, fit
+from ..train.fit import check_dataset, fit, resolve_background
 from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
@@ -72,6 +72,8 @@ def run_fit(args) -> int:
         for line in reasons:
             print(f"auto: {line}")
     print(f"recipe {recipe.summary()} ({backend})")
+    if not args.resume:
+        print(resolve_background(recipe, dataset))
     return train_and_report(dataset, recipe, backend, out, resume, figures=not args.no_figures)
 
 

@@ -6,11 +6,13 @@ Parameters of all fields live in one flat dict with prefixed keys (``coarse.mlp`
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field, replace
 
 import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
+from ..data.rays import BACKGROUNDS
 from ..errors import ConfigError, check_number
 from .integral import W_MIN, RenderOutput
 from .occupancy import OccupancyConfig, OccupiedSampler
@@ -28,8 +30,12 @@ class RenderConfig:
     """Importance samples per ray drawn from the coarse weights (0: no fine pass)."""
     separate_fine: bool = True
     """Give the fine pass its own field (NeRF); otherwise the coarse field is reused."""
-    background: tuple = (0.0, 0.0, 0.0)
-    """Colour behind the object (display space)."""
+    background: str | tuple | None = None
+    """Colour behind the object: ``white``, ``black``, ``random`` (a uniform colour per training ray, as
+    instant-ngp: the field cannot paint the background into empty space; renders and evaluation over white), an
+    ``(r, g, b)`` in display space, or None: the dataset's own (:attr:`~mitnerf.data.dataset.Dataset.background`:
+    white for Blender-synthetic folders and our 3D objects, black for 2D and tiny-NeRF files), which ``fit``
+    writes here (a typed ``--background`` wins)."""
     method: str = "replay"
     """``replay`` (custom operation) or ``autodiff`` (plain AD, the check)."""
     occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
@@ -44,7 +50,8 @@ class RenderConfig:
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
 
     def __post_init__(self):
-        self.background = tuple(self.background)
+        if isinstance(self.background, list):
+            self.background = tuple(self.background)
         if isinstance(self.occupancy, dict):
             self.occupancy = OccupancyConfig(**self.occupancy)
 
@@ -55,11 +62,20 @@ class RenderConfig:
         check_number("min_color_weight", self.min_color_weight, 0.0, 0.01)
         if self.method not in METHODS:
             raise ConfigError(f"--method must be one of {', '.join(METHODS)}, got {self.method!r}")
-        if len(self.background) != 3:
-            raise ConfigError(f"the background needs 3 values (r, g, b), got {self.background!r}")
-        for v in self.background:
-            check_number("background", v, 0.0, 1.0, flag="--background")
+        bg = self.background
+        if isinstance(bg, tuple):
+            if len(bg) != 3:
+                raise ConfigError(f"the background needs 3 values (r, g, b), got {bg!r}")
+            for v in bg:
+                check_number("background", v, 0.0, 1.0, flag="--background")
+        elif bg not in (None, "random", *BACKGROUNDS):
+            raise ConfigError(f"--background must be white, black, random or r,g,b; got {json.dumps(bg, default=str)[:40]}")
         self.occupancy.validate()
+
+    def render_background(self) -> tuple:
+        """The constant colour renders are composited over: ``random``'s is white, an unresolved one (None) black."""
+        bg = self.background
+        return BACKGROUNDS["white" if bg == "random" else bg or "black"] if not isinstance(bg, tuple) else bg
 
 
 def split_params(params: dict, prefix: str) -> dict:
@@ -120,10 +136,12 @@ class Model:
 
     def render(self, params: dict, origins: list, directions: list, near, far, seed: UInt32,
                training: bool, weights: bool = False, input_grads: bool = False,
-               occupied: Float | None = None) -> dict:
+               occupied: Float | None = None, background: list | None = None) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
-        ``'samples': (t, delta)`` of the final pass when ``weights`` is set."""
+        ``'samples': (t, delta)`` of the final pass when ``weights`` is set; ``background``: 3 arrays ``[n]``, a
+        colour per ray (training), else the configuration's (:meth:`RenderConfig.render_background`)."""
         cfg = self.render_cfg
+        bg = tuple(background) if background is not None else cfg.render_background()
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
         if occupied is None or not cfg.occupancy.enabled:
@@ -134,7 +152,7 @@ class Model:
                                       jitter=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
-                                          near, far, sampler, cfg.background, weights=weights or cfg.n_fine > 0, **kw),
+                                          near, far, sampler, bg, weights=weights or cfg.n_fine > 0, **kw),
                   "fine": None}
         if cfg.n_fine > 0:
             t, delta = sampler.points(n, near, far)
@@ -142,7 +160,7 @@ class Model:
                                         training)
             g = self.final_field()
             result["fine"] = volume_render(self.fields[g], split_params(params, g), origins, directions, near, far,
-                                           sampler, cfg.background, weights=weights, **kw)
+                                           sampler, bg, weights=weights, **kw)
             if not weights:
                 result["coarse"] = replace(result["coarse"], weights=None)
         if weights:

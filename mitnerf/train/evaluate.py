@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..data.dataset import Dataset, Split
+from ..data.rays import background_name
 from ..geometry import LEVEL, chamfer_distance, extract_mesh, mesh_from_ply
 from ..geometry.outline import outline_iou
 from .metrics import depth_error, psnr, ssim
@@ -51,6 +52,9 @@ class RunRecord:
     """Trainable parameters of the model."""
     recipe: str = ""
     """The recipe's name (``+`` when settings were overridden)."""
+    background: str = ""
+    """What the test renders and their targets are composited over (``white``, ``black``, ``r,g,b``; a
+    ``random`` training background evaluates over white)."""
     renders: dict | None = field(default=None, repr=False)
     """The test renders (``rgb``, ``depth``, ``opacity`` as ``[n, H, W, ...]``); not in :meth:`row`."""
 
@@ -112,7 +116,8 @@ def evaluate(backend, dataset: Dataset, split: str = "test", *, geometry_metrics
     """Render ``split`` and measure it; fills (and returns) ``record``."""
     rec = record or RunRecord()
     s = dataset[split]
-    bg = tuple(backend.model_cfg.render.background)
+    bg = backend.model_cfg.render.render_background()
+    rec.background = background_name(bg)
     r, elapsed = render_split(backend, s)
     target = s.target(bg)
     rec.renders = r

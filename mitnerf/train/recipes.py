@@ -50,7 +50,7 @@ class Recipe:
             if key in TrainConfig.__dataclass_fields__:
                 setattr(out.train, key, value)
             elif key in RenderConfig.__dataclass_fields__ and key != "occupancy":
-                setattr(out.model.render, key, tuple(value) if key == "background" else value)
+                setattr(out.model.render, key, tuple(value) if isinstance(value, list) else value)
             elif key.startswith("occupancy."):
                 sub = key.split(".", 1)[1]
                 if sub not in OccupancyConfig.__dataclass_fields__:

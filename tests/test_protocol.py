@@ -1,0 +1,72 @@
+"""The evaluation protocol: the background a fit trains and evaluates over, and what it is told."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mitnerf.data.cameras import Cameras
+from mitnerf.data.dataset import Dataset, Split
+from mitnerf.data.rays import background_colors
+from mitnerf.train.evaluate import evaluate
+from mitnerf.train.fit import resolve_background
+from mitnerf.train.recipes import get_recipe
+
+
+def one_view() -> Split:
+    """One 3D view of 3 x 3 pixels: the two left columns background (alpha 0), the right one grey 0.5, opaque."""
+    a = np.tile(np.array([0.0, 0.0, 1.0], np.float32), (1, 3, 1))                   # [1, 3, 3]
+    return Split(Cameras(np.eye(4)[None], 2.0, 3, 3), np.full((1, 3, 3, 3), 0.5, np.float32) * a[..., None], a)
+
+
+class WhiteRenders:
+    """A trained model stand-in whose every ray renders white, fully opaque."""
+
+    def __init__(self, recipe):
+        self.model_cfg, self.bound = recipe.model, 1.0
+
+    def render(self, origins, directions, chunk=None, footprint=None, spp=1):
+        n = len(origins)
+        return {"rgb": np.ones((n, 3), np.float32), "depth": np.ones(n, np.float32), "opacity": np.ones(n, np.float32)}
+
+    def n_params(self):
+        return 0
+
+
+@pytest.mark.parametrize("flag, line, expected", [
+    (None, "background white (the dataset's", 10.7918),
+    ("black", "background black (--background)", 1.2494),
+    ("random", "background random for training, white for evaluation (--background)", 10.7918)])
+def test_a_blender_scene_is_scored_over_white_unless_told(flag, line, expected):
+    # renders all white; over white the targets are 1 (6 pixels) and 0.5 (3): squared errors 0 and 0.25 per
+    # channel, MSE 0.75 / 9 = 0.08333, PSNR -10 log10(0.08333) = 10.7918 dB; over black the targets are 0 and
+    # 0.5: errors 1 and 0.25, MSE (6 + 0.75) / 9 = 0.75, PSNR 1.2494 dB. A random training background is
+    # evaluated over white.
+    split = one_view()
+    ds = Dataset({"train": split, "test": split}, 1.0, 3.0, {"format": "blender"})       # 3D, no stated colour
+    recipe = get_recipe("grid-3d").override(background=flag)
+    assert resolve_background(recipe, ds).startswith(line)
+    rec = evaluate(WhiteRenders(recipe), ds, geometry_metrics=False)
+    assert rec.psnr == pytest.approx(expected, abs=1e-4)
+    assert rec.background == "white" if flag != "black" else "black"
+
+
+def test_the_dataset_states_its_own_background():
+    # a tiny-NeRF file is composited over black already: its default is black, not the 3D white
+    split = one_view()
+    ds = Dataset({"train": split}, 1.0, 3.0, {"format": "tiny_nerf", "background": [0.0, 0.0, 0.0]})
+    recipe = get_recipe("grid-3d")
+    assert resolve_background(recipe, ds).startswith("background black (the dataset's")
+    assert recipe.model.render.background == "black"           # written into the recipe: the checkpoint records it
+
+
+def test_a_random_background_is_a_colour_per_ray_and_per_step():
+    split = one_view()
+    rays = split.rays("random")
+    a, b = rays.batch(np.array([0, 2, 0]), seed=1), rays.batch(np.array([0, 2, 0]), seed=2)
+    assert not np.array_equal(a.background, b.background)          # a fresh colour per step ...
+    assert not np.array_equal(a.background[0], a.background[2])    # ... and per ray, the same pixel too
+    assert ((a.background >= 0) & (a.background < 1)).all()
+    np.testing.assert_array_equal(a.target[0], a.background[0])     # the empty pixel shows its background
+    np.testing.assert_array_equal(a.target[1], [0.5, 0.5, 0.5])     # the opaque one its colour
+    np.testing.assert_array_equal(background_colors((1.0, 1.0, 1.0), 3, 2), np.ones((2, 3)))
