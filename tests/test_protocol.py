@@ -70,3 +70,47 @@ def test_a_random_background_is_a_colour_per_ray_and_per_step():
     np.testing.assert_array_equal(a.target[0], a.background[0])     # the empty pixel shows its background
     np.testing.assert_array_equal(a.target[1], [0.5, 0.5, 0.5])     # the opaque one its colour
     np.testing.assert_array_equal(background_colors((1.0, 1.0, 1.0), 3, 2), np.ones((2, 3)))
+
+
+def test_a_declared_subset_of_evenly_spaced_test_views():
+    from mitnerf.train.evaluate import test_views
+
+    np.testing.assert_array_equal(test_views(200, 0), np.arange(200))          # the default: all of them
+    np.testing.assert_array_equal(test_views(200, 5), [0, 50, 100, 149, 199])   # linspace(0, 199, 5), rounded
+    np.testing.assert_array_equal(test_views(3, 7), [0, 1, 2])                 # more than there are: all
+
+
+def test_the_subset_is_what_is_measured():
+    # three views: the middle one grey as one_view(), the others empty. Renders all white over white: the empty
+    # views score no error, the grey one MSE 0.08333 (test above). Views 0 and 2 (2 of 3, evenly spaced): PSNR
+    # inf; all three: MSE 0.08333 / 3 = 0.02778, PSNR 15.563 dB.
+    v = one_view()
+    empty = Split(v.cameras, np.zeros_like(v.color), np.zeros_like(v.alpha))
+    split = Split.concatenate([empty, v, empty])
+    ds = Dataset({"train": split, "test": split}, 1.0, 3.0, {"format": "blender"})
+    recipe = get_recipe("grid-3d")
+    resolve_background(recipe, ds)
+    some = evaluate(WhiteRenders(recipe), ds, geometry_metrics=False, views=2)
+    every = evaluate(WhiteRenders(recipe), ds, geometry_metrics=False)
+    assert (some.views, some.split_views, some.psnr) == (2, 3, np.inf)
+    assert (every.views, every.psnr) == (3, pytest.approx(15.563, abs=1e-3))
+    assert some.line().startswith("test PSNR inf dB, SSIM 1.000 on 2 of 3 views")
+    assert "views" not in every.line()
+    np.testing.assert_array_equal(some.renders["views"], [0, 2])
+
+
+def test_fit_prints_and_records_the_protocol(bunny_small, tmp_path, capsys):
+    import json
+
+    from mitnerf.cli import main
+    from mitnerf.data.formats import save_dataset
+
+    save_dataset(bunny_small, tmp_path / "ds")
+    assert main(["fit", "--data", str(tmp_path / "ds"), "--iters", "5", "--field", "vanilla", "--width", "8",
+                 "--depth", "1", "--samples", "8", "--test-views", "3", "--out", str(tmp_path / "run")]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[1] == ("background black (the dataset's; --background white|black|random to change); "
+                        "test on 3 of 8 views (--test-views)")
+    assert " on 3 of 8 views, " in lines[-1]
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert (metrics["background"], metrics["views"], metrics["split_views"]) == ("black", 3, 8)

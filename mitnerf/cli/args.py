@@ -65,6 +65,8 @@ OVERRIDES = [
     ("--lr", "lr", dict(type=number(False, 0, 10, strict_lo=True)), "peak learning rate"),
     ("--lr-final", "lr_final", dict(type=number(False, 0, 10, strict_lo=True)), "final learning rate"),
     ("--seed", "seed", dict(type=number(True, 0, 2 ** 32 - 1)), "seed of weights, batches and jitter"),
+    ("--test-views", "test_views", dict(type=number(True, 0, 10 ** 6)),
+     "evaluate on N evenly spaced test views (a quick check; default: all of them)"),
     ("--val-every", "val_every", dict(type=number(True, 0, 10 ** 9)), "validate every N steps (0: at the end)"),
     ("--threads", "threads", dict(type=number(True, 1, 1024)), "CPU threads"),
     ("--depth-weight", "depth_weight", dict(type=number(False, 0, 1e6)),

@@ -16,6 +16,7 @@ from ..errors import ConfigError, Terminated
 from ..results import load_results
 from ..train.auto import AutoConfig, choose_recipe
 from ..train.checkpoint import checkpoint_bytes, load_checkpoint
+from ..data.rays import background_name
 from ..train.fit import check_dataset, fit, resolve_background
 from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
@@ -72,8 +73,10 @@ def run_fit(args) -> int:
         for line in reasons:
             print(f"auto: {line}")
     print(f"recipe {recipe.summary()} ({backend})")
-    if not args.resume:
-        print(resolve_background(recipe, dataset))
+    n, views = len(dataset["test"]), recipe.train.test_views
+    where = (resolve_background(recipe, dataset) if not args.resume
+             else f"background {background_name(recipe.model.render.background)}")
+    print(f"{where}; test on " + (f"{views} of {n} views (--test-views)" if 0 < views < n else f"all {n} views"))
     return train_and_report(dataset, recipe, backend, out, resume, figures=not args.no_figures)
 
 

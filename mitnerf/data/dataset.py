@@ -108,6 +108,15 @@ class Split:
         """Coverage in [0, 1], float32 ``[n, H, W]``."""
         return self._alpha.astype(np.float32) / 255.0 if self.eight_bit else self._alpha
 
+    @property
+    def has_alpha(self) -> bool:
+        """Whether coverage tells empty pixels (a format without alpha has it all ones)."""
+        return bool(self._alpha.min() < (255 if self.eight_bit else 1.0))
+
+    def covered(self, index: np.ndarray) -> np.ndarray:
+        """Whether the pixels at flat indices ``index`` have any coverage (alpha > 0)."""
+        return self._alpha.reshape(-1)[index] > 0
+
     def pixels(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Premultiplied colour ``[m, 3]`` and coverage ``[m]`` (float32) of the pixels at flat indices ``index``
         (``[m]`` into ``[n * H * W]``)."""

@@ -66,8 +66,8 @@ class TrainingRays:
         self.split, self.background, self.solid = split, background, solid
         cams = split.cameras
         self.shape = (len(cams), cams.height, cams.width)
-        self.alpha_says = bool((split._alpha.min() < (255 if split.eight_bit else 1.0)))
-        """Whether coverage tells empty pixels (a format without alpha has it all ones: free space unknown)."""
+        self.alpha_says = split.has_alpha
+        """Whether coverage tells empty pixels (where it does not, free space is unknown)."""
 
     def __len__(self) -> int:
         return int(np.prod(self.shape))
@@ -99,7 +99,7 @@ class TrainingRays:
             depth = np.where(hit > 0, s.depth.reshape(-1)[index], 0.0)
             free = np.where(hits[near], s.depth.reshape(-1)[near], np.inf).min(axis=1)
         elif self.alpha_says:                    # empty all along where the neighbourhood's largest alpha is 0
-            free = np.where(s._alpha.reshape(-1)[near].max(axis=1) <= 0, np.inf, 0.0)
+            free = np.where(s.covered(near).any(axis=1), 0.0, np.inf)
         if self.solid is not None:
             solid = self.solid.reshape(-1)[index]
         f32 = lambda a: np.ascontiguousarray(a, np.float32)

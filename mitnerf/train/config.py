@@ -90,6 +90,9 @@ class TrainConfig:
     """Validate every so many steps (0: only at the end); the best validation is kept."""
     val_views: int = 4
     """Validation views rendered each time."""
+    test_views: int = 0
+    """Test views the run is evaluated on, evenly spaced (a quick check, said wherever its figure is); 0: all, the
+    protocol (:func:`~mitnerf.train.evaluate.test_views`)."""
     keep_best: bool = True
     """End with the weights of the best validation, not the last step (and say so), when it beats the last
     validation by ``keep_best_margin``."""
@@ -145,6 +148,7 @@ class TrainConfig:
         check("opacity_weight", self.opacity_weight, 0, 1e6, flag="--opacity-weight")
         check("val_every", self.val_every, 0, 10 ** 9, integer=True, flag="--val-every")
         check("val_views", self.val_views, 1, 10 ** 6, integer=True)
+        check("test_views", self.test_views, 0, 10 ** 6, integer=True, flag="--test-views")
         check("keep_best_margin", self.keep_best_margin, 0, 100)
         check("seed", self.seed, 0, 2 ** 32 - 1, integer=True, flag="--seed")
         check("threads", self.threads, 1, 1024, integer=True, flag="--threads")

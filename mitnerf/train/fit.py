@@ -43,8 +43,11 @@ class Run:
         return self.backend.bound
 
     def record(self, dataset: Dataset, split: str = "test", **kw) -> RunRecord:
-        """Evaluate on ``split`` (see :func:`~mitnerf.train.evaluate.evaluate`)."""
+        """Evaluate on ``split`` (see :func:`~mitnerf.train.evaluate.evaluate`), the test split on the recipe's
+        ``test_views``."""
         rec = RunRecord(train_time=self.state.train_time, steps=self.state.step, recipe=self.recipe.name)
+        t = self.recipe.train
+        kw = {"views": t.test_views if split == "test" else 0, "progress": t.progress, **kw}
         return evaluate(self.backend, dataset, split, record=rec, **kw)
 
 

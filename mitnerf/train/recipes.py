@@ -84,12 +84,12 @@ class Recipe:
         return getattr(self.model.field_config(self.dim), key)
 
     def essence(self) -> dict:
-        """The settings that change what is trained (not progress bars or thread counts); field settings
+        """The settings that change what is trained (not progress bars, thread counts or test views); field settings
         with their defaults filled in, so a setting written at its default value changes nothing."""
         d = self.to_dict()
         full = dataclasses.asdict(self.model.field_config(self.dim))
         d["model"]["field_args"] = {k: v for k, v in full.items() if k != "dim"}
-        d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads")}
+        d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads", "test_views")}
         return {k: v for k, v in d.items() if k not in ("name", "about")}
 
     def validate(self) -> "Recipe":

@@ -21,8 +21,8 @@ def write_fit(run: Run, folder: Path, record: RunRecord | None = None, dataset: 
     if record is not None and dataset is not None and record.renders is not None:
         title = f"{dataset.meta.get('scene', '')} {run.recipe.name} ({run.backend.name})"
         plot_curves(run.state.history, folder / "curves.png", title)
-        save_renders(record.renders, dataset["test"], run.recipe.model.render.render_background(), folder, dataset.near,
-                     dataset.far)
+        save_renders(record.renders, dataset["test"].subset(record.renders["views"]),
+                     run.recipe.model.render.render_background(), folder, dataset.near, dataset.far)
         save_density(run.backend.density, run.bound, dataset.dim, folder / "density.png",
                      dataset.meta.get("polygon"), title=f"density ({title})")
     return folder
