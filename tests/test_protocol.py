@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import drjit as dr
 import numpy as np
 import pytest
 
@@ -114,3 +115,40 @@ def test_fit_prints_and_records_the_protocol(bunny_small, tmp_path, capsys):
     assert " on 3 of 8 views, " in lines[-1]
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert (metrics["background"], metrics["views"], metrics["split_views"]) == ("black", 3, 8)
+
+
+def test_rays_decoded_per_batch_train_as_rays_held_in_memory(vase_small, tmp_path):
+    """A Blender folder of 8-bit images: its colours are held as the 8 bits and each batch decodes its own pixels;
+    training on them matches training on every pixel's ray held as floats in memory (the path before), step for
+    step (one thread: deterministic sums), to the test PSNR."""
+    from mitnerf.data.formats import load_dataset, save_dataset
+    from mitnerf.rng import step_seed
+    from mitnerf.train.engines import make_backend
+
+    save_dataset(vase_small, tmp_path / "ds", "blender")
+    for f in (tmp_path / "ds").rglob("*_linear.npy"):          # 8-bit PNG colours only, as a Blender scene
+        f.unlink()
+    ds = load_dataset(tmp_path / "ds")
+    assert ds["train"].eight_bit and ds["test"].eight_bit
+    recipe = get_recipe("grid-3d").at_steps(12, threads=1, resolution=17, initial_resolution=17, n_coarse=16,
+                                            batch_rays=256)
+    resolve_background(recipe, ds)
+    lazy = ds["train"].rays(recipe.model.render.render_background(), **recipe.train.ray_args())
+    held = lazy.batch(np.arange(len(lazy)))                   # every pixel's ray, float, in memory
+    o, d = ds["train"].cameras.rays()                           # as the cameras give them, all at once
+    np.testing.assert_array_equal(held.directions, d.reshape(-1, 3).astype(np.float32))
+    np.testing.assert_array_equal(held.origins, o.reshape(-1, 3).astype(np.float32))
+    index = np.arange(0, len(lazy), 7)
+    for name in ("origins", "directions", "target", "free", "depth", "hit"):
+        np.testing.assert_array_equal(getattr(lazy.batch(index), name), getattr(held, name)[index])
+    psnrs = []
+    try:
+        for rays in (lazy, held):
+            be = make_backend("drjit", recipe.model, recipe.train, 3, ds.bound, ds.near, ds.far)
+            be.set_data(rays)
+            for k in range(12):
+                be.read(be.step(k, step_seed(0, k), 0.05))
+            psnrs.append(evaluate(be, ds, geometry_metrics=False).psnr)
+    finally:
+        dr.set_thread_count(2)                                  # the session's count (conftest)
+    assert psnrs[0] == pytest.approx(psnrs[1], abs=1e-6) and psnrs[0] > 8, psnrs

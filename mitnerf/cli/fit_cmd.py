@@ -112,6 +112,7 @@ def train_and_report(dataset, recipe, backend: str, out: Output | None, resume=N
         print(f"wrote {out.path}")
         if signals:
             raise (Terminated if signals[0] == signal.SIGTERM else KeyboardInterrupt)()
+    print(f"evaluated {record.views} views in {record.eval_time:.1f} s; peak memory {record.peak_memory:.2f} GiB")
     print(record.line() + f" ({backend})")
     return 0 if record.status == "ok" else 1
 

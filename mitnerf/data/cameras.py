@@ -86,58 +86,36 @@ class Cameras:
     def subset(self, index) -> "Cameras":
         return Cameras(self.poses[index], self.focal, self.height, self.width)
 
-    def _raw_at(self, row: np.ndarray, col: np.ndarray) -> np.ndarray:
-        """Directions through the centres of pixels ``(row, col)`` in camera space, not normalised, ``[..., dim]``."""
+    def _raw_directions(self) -> np.ndarray:
+        """Pixel-centre directions in camera space, not normalised, ``[H, W, dim]``."""
         f, H, W = self.focal, self.height, self.width
         if self.dim == 2:
-            return np.stack([np.full(np.shape(row), f), H / 2 - (row + 0.5)], -1)
-        return np.stack([(col + 0.5 - W / 2) / f, -(row + 0.5 - H / 2) / f, -np.ones(np.shape(row))], -1)
-
-    def _pixels(self) -> tuple[np.ndarray, np.ndarray]:
-        """Row and column of every pixel, ``[H, W]`` each."""
-        return np.meshgrid(np.arange(self.height), np.arange(self.width), indexing="ij")
-
-    def _world(self, view, vectors: np.ndarray) -> np.ndarray:
-        """Camera-space ``vectors [..., dim]`` rotated into the world by the poses of ``view`` (broadcast against
-        them): the same products, summed in the same order, for one pixel or all of them."""
-        R = self.poses[view, : self.dim, : self.dim]
-        return sum(R[..., :, j] * vectors[..., j:j + 1] for j in range(self.dim))
+            return np.stack([np.full(H, f), H / 2 - (np.arange(H) + 0.5)], -1)[:, None, :]
+        U, V = np.meshgrid((np.arange(W) + 0.5 - W / 2) / f, -(np.arange(H) + 0.5 - H / 2) / f)
+        return np.stack([U, V, -np.ones_like(U)], -1)
 
     def camera_directions(self) -> np.ndarray:
         """Unit pixel-centre directions in camera space, ``[H, W, dim]``."""
-        d = self._raw_at(*self._pixels())
+        d = self._raw_directions()
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-    def _steps(self, raw: np.ndarray) -> np.ndarray:
-        """A pixel's two steps in camera space, ``[..., 2, dim]`` (see :meth:`footprint`)."""
-        k, f = self.dim, self.focal
-        s = [[0.0, -1.0], [0.0, 0.0]] if k == 2 else [[1 / f, 0, 0], [0, -1 / f, 0]]
-        return np.broadcast_to(s, raw.shape[:-1] + (2, k)) / np.linalg.norm(raw, axis=-1)[..., None, None]
 
     def footprint(self) -> np.ndarray:
         """Each pixel's extent as steps of its unit direction, ``[n, H, W, 2, dim]``: the ray
         through the point ``(a, b)`` of pixel ``(v, u)`` (``a, b`` in [-1/2, 1/2], 0 at the
         centre) has the direction ``normalize(d + a s_0 + b s_1)``. In 2D ``s_0`` steps one row
         and ``s_1`` is zero (1D views)."""
-        steps = self._steps(self._raw_at(*self._pixels()))                  # [H, W, 2, dim]
-        return self._world(np.arange(len(self))[:, None, None, None], steps[None])
+        raw, f, k = self._raw_directions(), self.focal, self.dim
+        s = [[0.0, -1.0], [0.0, 0.0]] if k == 2 else [[1 / f, 0, 0], [0, -1 / f, 0]]
+        steps = np.broadcast_to(s, raw.shape[:2] + (2, k)) / np.linalg.norm(raw, axis=-1)[..., None, None]
+        return np.einsum("nij,hwsj->nhwsi", self.poses[:, :k, :k], steps)        # steps: [H, W, 2, dim]
 
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions of every pixel-centre ray, each ``[n, H, W, dim]``."""
-        d = self._world(np.arange(len(self))[:, None, None], self.camera_directions()[None])
+        k = self.dim
+        d = np.einsum("nij,hwj->nhwi", self.poses[:, :k, :k], self.camera_directions())
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
         o = np.broadcast_to(self.origins[:, None, None, :], d.shape)
         return np.ascontiguousarray(o), d
-
-    def rays_at(self, view: np.ndarray, row: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                                                        np.ndarray]:
-        """Origins, unit directions and footprints (:meth:`footprint`) of the pixel-centre rays of pixels
-        ``(view, row, col)`` (``[m]`` each): ``[m, dim]``, ``[m, dim]``, ``[m, 2, dim]``, equal to those of
-        :meth:`rays` and :meth:`footprint` at these pixels."""
-        raw = self._raw_at(row, col)
-        d = self._world(view, raw / np.linalg.norm(raw, axis=-1, keepdims=True))
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        return self.origins[view], d, self._world(view[:, None], self._steps(raw))
 
     def to_camera(self, points: np.ndarray) -> np.ndarray:
         """World points ``[m, dim]`` in every camera's axes, ``[n, m, dim]`` (the poses' rotations are orthonormal)."""

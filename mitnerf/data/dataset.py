@@ -69,7 +69,8 @@ class Split:
 
     def __init__(self, cameras: Cameras, color: np.ndarray, alpha: np.ndarray, depth: np.ndarray | None = None,
                  mask: np.ndarray | None = None, linear: np.ndarray | None = None):
-        """``color``: display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32 ``[n, H, W, 3]``;
+        """``color``: display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32 ``[n, H, W, 3]``,
+        or an 8-bit image's straight colour (uint8, with ``alpha`` uint8 too: held as given);
         ``alpha``: coverage in [0, 1], ``[n, H, W]`` (all ones when a format has none); ``depth``: distance along
         each pixel-centre ray, ``inf`` on a miss (None: unknown); ``mask``: whether the pixel-centre ray hits the
         object (None: unknown); ``linear``: exact linear RGB over black (datasets rendered here)."""
@@ -84,6 +85,8 @@ class Split:
             arr = getattr(self, name)
             if arr is not None and arr.shape != (n, H, W):
                 raise MitnerfError(f"{name} maps have shape {arr.shape[1:]}, expected {(H, W)} for {n} frames")
+        if (color.dtype == np.uint8) != (alpha.dtype == np.uint8):
+            raise MitnerfError("8-bit colour needs 8-bit coverage beside it (and float colour float coverage)")
         self._color, self._alpha = color, alpha
         if color.dtype != np.uint8 and linear is None:        # 8-bit images, read as floats: keep the 8 bits
             parts = [eight_bit(c, a) for c, a in zip(color, alpha)]

@@ -11,6 +11,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..rng import uniform_np
+from .cameras import Cameras
 
 BACKGROUNDS = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
 """The named constant backgrounds; ``"random"`` draws a colour per training ray (and evaluates over white)."""
@@ -66,6 +67,10 @@ class TrainingRays:
         self.split, self.background, self.solid = split, background, solid
         cams = split.cameras
         self.shape = (len(cams), cams.height, cams.width)
+        k = cams.dim
+        self.local = cams.camera_directions()           # [H, W, D]: pixel-centre directions in camera space
+        self.steps = Cameras(np.eye(k + 1)[None], cams.focal, cams.height, cams.width).footprint()[0]  # [H, W, 2, D]
+        self.rotations = cams.poses[:, :k, :k]
         self.alpha_says = split.has_alpha
         """Whether coverage tells empty pixels (where it does not, free space is unknown)."""
 
@@ -86,7 +91,10 @@ class TrainingRays:
         s, (n, H, W) = self.split, self.shape
         view, rest = np.divmod(index, H * W)
         row, col = np.divmod(rest, W)
-        o, d, fp = s.cameras.rays_at(view, row, col)
+        R = self.rotations[view]                       # as Cameras.rays() and .footprint(), a batch at a time
+        d = np.einsum("bij,bj->bi", R, self.local[row, col])
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        o, fp = s.cameras.origins[view], np.einsum("bij,bsj->bsi", R, self.steps[row, col])
         color, alpha = s.pixels(index)
         bg = background_colors(self.background, seed, len(index))
         target = color + (1.0 - alpha[:, None]) * bg

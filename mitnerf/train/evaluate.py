@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import resource
 import time
 from dataclasses import dataclass, field
 
@@ -59,6 +60,8 @@ class RunRecord:
     """Test views measured: all of the split's, or ``--test-views`` evenly spaced ones (:func:`test_views`)."""
     split_views: int = 0
     """Views in the test split."""
+    peak_memory: float = math.nan
+    """GiB: the process's peak resident memory when the evaluation ended (loading, training and evaluating)."""
     params: int = 0
     """Trainable parameters of the model."""
     recipe: str = ""
@@ -221,4 +224,5 @@ def evaluate(backend, dataset: Dataset, split: str = "test", *, geometry_metrics
             for k, v in geometry(backend, dataset, backend.bound).items():
                 setattr(rec, k, v)
     rec.eval_time = time.perf_counter() - t0
+    rec.peak_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20      # KiB on Linux
     return rec
