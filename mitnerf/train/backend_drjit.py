@@ -44,6 +44,9 @@ class DrJitBackend(Backend):
                         params=self.model.init_params(train_cfg.seed))
         occ = model_cfg.render.occupancy
         self.occupancy = OccupancyGrid(occ, dim, bound) if occ.enabled else None
+        self._inputs = None
+        """The batch, column after column (``STEP_INPUTS``), in one array written in place every step: a frozen
+        step given fresh arrays each time is recorded again and again while earlier steps are in flight."""
         self._frozen = self._new_step()
 
     @property
@@ -58,9 +61,13 @@ class DrJitBackend(Backend):
         model, cfg, n_final = self.model, self.cfg, self.n_final
         near, far, B = self.near, self.far, cfg.batch_rays
         use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
+        widths = [D, D, 3, 3, 1, 1, 1, 2 * D, 1]                             # of STEP_INPUTS
 
-        def step(opt, data, seed, lr, occupied):
+        def step(opt, inputs, seed, lr, occupied):
             set_learning_rate(opt, lr)
+            rows, data = dr.arange(UInt32, B), {}
+            for k, start, width in zip(STEP_INPUTS, np.cumsum([0, *widths]).tolist(), widths):  # the batch's columns
+                data[k] = [dr.gather(Float, inputs, rows + (start + c) * B) for c in range(width)]
             params = {k: opt[k] for k in opt.keys()}
             o = data["origins"]
             d = d_centre = data["directions"]
@@ -96,8 +103,13 @@ class DrJitBackend(Backend):
             self._frozen = self._new_step()         # new shapes: a new recording (see _drjit_compat.freeze)
         self.update_occupancy(index, seed)
         occ, b = self.occupancy, self.batch(seed)
-        data = {k: columns(getattr(b, k).reshape(len(b), -1)) for k in STEP_INPUTS}     # a PyTree: frozen inputs
-        return self._frozen(self.opt, data, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
+        batch = np.concatenate([getattr(b, k).reshape(len(b), -1).T.ravel() for k in STEP_INPUTS])
+        if self._inputs is None or dr.width(self._inputs) != len(batch):
+            self._inputs = dr.zeros(Float, len(batch))
+        dr.eval(self._inputs)
+        dr.sync_thread()                # the steps in flight have read the last batch
+        self._inputs.numpy()[:] = batch
+        return self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
                             occ.occupied if occ is not None else None)
 
     def read(self, handle) -> tuple[float, str | None]:
