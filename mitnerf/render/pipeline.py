@@ -136,21 +136,24 @@ class Model:
 
     def render(self, params: dict, origins: list, directions: list, near, far, seed: UInt32,
                training: bool, weights: bool = False, input_grads: bool = False,
-               occupied: Float | None = None, background: list | None = None) -> dict:
+               occupancy: tuple | None = None, background: list | None = None) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
-        ``'samples': (t, delta)`` of the final pass when ``weights`` is set; ``background``: 3 arrays ``[n]``, a
-        colour per ray (training), else the configuration's (:meth:`RenderConfig.render_background`)."""
+        ``'samples': (t, delta)`` of the final pass when ``weights`` is set; ``occupancy``: the occupancy grid's
+        :attr:`~.occupancy.OccupancyGrid.lookup`; ``background``: 3 arrays ``[n]``, a colour per ray (training), else
+        the configuration's (:meth:`RenderConfig.render_background`). Renders without training end each ray's
+        march where its transmittance falls to ``min_color_weight`` (:mod:`.integral`)."""
         cfg = self.render_cfg
         bg = tuple(background) if background is not None else cfg.render_background()
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
-        if occupied is None or not cfg.occupancy.enabled:
+        if occupancy is None or not cfg.occupancy.enabled:
             sampler = Stratified(cfg.n_coarse, seed, jitter=training)
         else:
-            sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins,
+            sampler = OccupiedSampler(*occupancy, cfg.n_coarse, cfg.occupancy.march_bins,
                                       self.fields["coarse"].bound, cfg.occupancy.resolution, seed,
                                       jitter=training).build(origins, directions, near, far)
-        kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight)
+        kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
+                  stop=0.0 if training else cfg.min_color_weight)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
                                           near, far, sampler, bg, weights=weights or cfg.n_fine > 0, **kw),
                   "fine": None}

@@ -39,7 +39,7 @@ class DrJitBackend(Backend):
         check_llvm()
         dr.set_thread_count(train_cfg.threads)
         self.model = build_model(model_cfg, dim, bound)
-        self.chunk = 65536 if self.model.fields["coarse"].traceable else 8192
+        self.chunk = 1 << 18 if self.model.fields["coarse"].traceable else 8192
         self.opt = Adam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2, epsilon=train_cfg.eps,
                         params=self.model.init_params(train_cfg.seed))
         occ = model_cfg.render.occupancy
@@ -63,7 +63,7 @@ class DrJitBackend(Backend):
         use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
         widths = [D, D, 3, 3, 1, 1, 1, 2 * D, 1]                             # of STEP_INPUTS
 
-        def step(opt, inputs, seed, lr, occupied):
+        def step(opt, inputs, seed, lr, occupancy):
             set_learning_rate(opt, lr)
             rows, data = dr.arange(UInt32, B), {}
             for k, start, width in zip(STEP_INPUTS, np.cumsum([0, *widths]).tolist(), widths):  # the batch's columns
@@ -78,7 +78,7 @@ class DrJitBackend(Backend):
                 inv = dr.rsqrt(sum(di * di for di in d))
                 d = [di * inv for di in d]
             outs = model.render(params, o, d, near, far, seed, training=True, weights=use_weights,
-                                occupied=occupied, background=data["background"])
+                                occupancy=occupancy, background=data["background"])
             depth, behind = data["depth"][0], None
             if cfg.solid_weight > 0:            # points within the solid extent behind pixel-centre depths
                 extent = data["solid"][0]
@@ -110,7 +110,7 @@ class DrJitBackend(Backend):
         dr.sync_thread()                # the steps in flight have read the last batch
         self._inputs.numpy()[:] = batch
         return self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
-                            occ.occupied if occ is not None else None)
+                            occ.lookup if occ is not None else None)
 
     def read(self, handle) -> tuple[float, str | None]:
         loss, bad = handle
@@ -127,9 +127,9 @@ class DrJitBackend(Backend):
 
     def render_chunk(self, origins: np.ndarray, directions: np.ndarray) -> dict:
         with dr.suspend_grad():
-            occupied = self.occupancy.occupied if self.occupancy is not None else None
+            occ = self.occupancy.lookup if self.occupancy is not None else None
             out = final(self.model.render(self.detached(), columns(origins), columns(directions), self.near,
-                                          self.far, UInt32(0), training=False, occupied=occupied))
+                                          self.far, UInt32(0), training=False, occupancy=occ))
             dr.eval(out.rgb, out.depth, out.opacity)
             return {"rgb": np.stack([np.asarray(c) for c in out.rgb], 1), "depth": np.asarray(out.depth),
                     "opacity": np.asarray(out.opacity)}

@@ -15,7 +15,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from ..data.dataset import Dataset, Split
-from ..data.rays import background_name
+from ..data.rays import background_name, view_rays
 from ..geometry import LEVEL, chamfer_distance, extract_mesh, mesh_from_ply
 from ..geometry.outline import outline_iou
 from .metrics import depth_error, ssim
@@ -150,10 +150,10 @@ def classify(rgb: np.ndarray, opacity: np.ndarray, split: Split, background) -> 
 
 def render_split(backend, split: Split) -> tuple[dict, float]:
     """Renders of ``split``'s views ``[n, H, W, ...]`` (``eval_spp`` rays per pixel), and the seconds taken."""
-    o, d = split.cameras.rays()
-    D, t0 = o.shape[-1], time.perf_counter()
-    out = backend.render(o.reshape(-1, D), d.reshape(-1, D), footprint=split.cameras.footprint().reshape(-1, 2, D),
-                         spp=backend.model_cfg.render.eval_spp)
+    o, d = view_rays(split.cameras)
+    spp, D, t0 = backend.model_cfg.render.eval_spp, o.shape[-1], time.perf_counter()
+    fp = split.cameras.footprint().reshape(-1, 2, D) if spp > 1 else None
+    out = backend.render(o.reshape(-1, D), d.reshape(-1, D), footprint=fp, spp=spp)
     elapsed = time.perf_counter() - t0
     return {k: v.reshape(*o.shape[:-1], *v.shape[1:]) for k, v in out.items()}, elapsed
 
