@@ -152,3 +152,21 @@ def test_rays_decoded_per_batch_train_as_rays_held_in_memory(vase_small, tmp_pat
     finally:
         dr.set_thread_count(2)                                  # the session's count (conftest)
     assert psnrs[0] == pytest.approx(psnrs[1], abs=1e-6) and psnrs[0] > 8, psnrs
+
+
+def test_a_foreign_scene_is_bounded_by_its_visual_hull(vase_small, tmp_path):
+    """A Blender folder without our provenance file: the bound comes from the box around the training views'
+    visual hull (alpha), tighter than the camera distances' guess and still around every surface point the depth
+    maps see."""
+    from mitnerf.data.formats import load_dataset, save_dataset
+
+    save_dataset(vase_small, tmp_path / "ds", "blender")
+    (tmp_path / "ds" / "mitnerf.json").unlink()                  # as anyone's Blender scene
+    ds = load_dataset(tmp_path / "ds")
+    guess = 1.1 * (np.median(np.linalg.norm(ds["train"].cameras.origins, axis=1)) - ds.near)
+    surface = []
+    for name in ("train", "test"):
+        o, d = vase_small[name].cameras.rays()
+        hit = np.isfinite(vase_small[name].depth)
+        surface.append((o + vase_small[name].depth[..., None] * d)[hit])
+    assert 1.1 * np.abs(np.concatenate(surface)).max() <= ds.bound < 0.8 * guess

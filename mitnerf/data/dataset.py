@@ -7,12 +7,13 @@ beside them, so any background can be composited later: ``target = color + (1 - 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
 from ..errors import MitnerfError
 from .cameras import Cameras
-from .carve import solid_extent
+from .carve import pixel_of, solid_extent
 from .color import display_color
 
 SPLITS = ("train", "val", "test")
@@ -196,10 +197,11 @@ class Dataset:
     def dim(self) -> int:
         return next(iter(self.splits.values())).cameras.dim
 
-    @property
+    @cached_property
     def bound(self) -> float:
         """Half-extent that normalises positions: 1.1 x the object's radius, from the outline or the unit sphere
-        of datasets rendered here (2D / 3D), else the median camera distance minus ``near`` (foreign data)."""
+        of datasets rendered here (2D / 3D), else (foreign data) the box around the training views' visual hull
+        (:func:`hull_radius`) where their alpha tells empty pixels, else the median camera distance minus ``near``."""
         meta = self.meta
         if "polygon" in meta:
             r = float(np.linalg.norm(np.asarray(meta["polygon"]), axis=1).max())
@@ -208,6 +210,9 @@ class Dataset:
         else:
             cams = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in self.splits.values()])
             r = max(float(np.median(cams)) - self.near, 0.5)
+            train = self.splits.get("train")
+            if train is not None and train.has_alpha:
+                r = hull_radius(train, 1.1 * r)
         return 1.1 * r
 
     @property
@@ -219,6 +224,34 @@ class Dataset:
         trainer never stops a few-view run for looking collapsed; NaN still stops it)."""
         train = self["train"] if train_index is None else self["train"].subset(train_index)
         return Dataset({"train": train, "test": self["test"]}, self.near, self.far, dict(self.meta))
+
+
+HULL_POINTS = 64
+"""Points per axis of the lattice whose carving gives a dataset's visual hull (:func:`hull_radius`)."""
+HULL_VIEWS = 24
+"""Training views, evenly spaced, that carve it."""
+
+
+def hull_radius(split: Split, r: float) -> float:
+    """The largest coordinate (in absolute value) of a point of ``[-r, r]^D`` that no view of ``split`` (at most
+    :data:`HULL_VIEWS` of them) knows to be empty: none sees it in a pixel whose neighbourhood has alpha 0
+    (:func:`free_distance`), and none whose border is all empty (the object inside its frame) leaves it out of
+    frame. The box around the views' visual hull, on a lattice of :data:`HULL_POINTS` per axis, one lattice step
+    wider; ``r`` when nothing is left (alpha that contradicts the poses)."""
+    views = np.unique(np.linspace(0, len(split) - 1, min(len(split), HULL_VIEWS)).round().astype(int))
+    sub = split.subset(views)
+    empty = np.isinf(free_distance(None, None, sub.alpha))
+    framed = empty[:, [0, -1]].all(axis=(1, 2)) & empty[:, :, [0, -1]].all(axis=(1, 2))     # [n]
+    axis = np.linspace(-r, r, HULL_POINTS)
+    pts = np.stack(np.meshgrid(*[axis] * sub.cameras.dim, indexing="ij"), -1).reshape(-1, sub.cameras.dim)
+    top = -1.0
+    for s in range(0, len(pts), 1 << 15):
+        p = pts[s:s + (1 << 15)]
+        row, col, inside = pixel_of(sub.cameras, p)                             # [n, m]
+        out = (inside & empty[np.arange(len(views))[:, None], row, col] | ~inside & framed[:, None]).any(0)
+        if not out.all():
+            top = max(top, float(np.abs(p[~out]).max()))
+    return min(top + 2 * r / (HULL_POINTS - 1), r) if top >= 0 else r
 
 
 def bounds_from_cameras(cams: list[Cameras], radius: float, margin: float = 0.1) -> tuple[float, float]:

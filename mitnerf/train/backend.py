@@ -97,8 +97,11 @@ class Backend(ABC):
         self.rays, self.n_pixels = rays, len(rays)
 
     def batch(self, seed: int) -> RaySet:
-        """The rays of the step with batch seed ``seed`` (:func:`mitnerf.rng.batch_indices`)."""
-        return self.rays.batch(batch_indices(seed, self.cfg.batch_rays, self.n_pixels), seed)
+        """The rays of the step with batch seed ``seed`` (:func:`mitnerf.rng.batch_indices`); with an occupancy grid,
+        which gives each ray as many samples as it crosses occupied space, those known to be empty all along come
+        first, so that rays marched side by side (a SIMD packet) mostly end their march together."""
+        b = self.rays.batch(batch_indices(seed, self.cfg.batch_rays, self.n_pixels), seed)
+        return b if self.occupancy is None else b.batch(np.argsort(~np.isinf(b.free), kind="stable"))
 
     @abstractmethod
     def step(self, index: int, seed: int, lr: float):
