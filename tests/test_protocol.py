@@ -170,3 +170,33 @@ def test_a_foreign_scene_is_bounded_by_its_visual_hull(vase_small, tmp_path):
         hit = np.isfinite(vase_small[name].depth)
         surface.append((o + vase_small[name].depth[..., None] * d)[hit])
     assert 1.1 * np.abs(np.concatenate(surface)).max() <= ds.bound < 0.8 * guess
+
+
+def views_at(focal: float, n: int = 3) -> Dataset:
+    """``n`` 3D cameras 4 units from the origin with ``focal`` (pixels), our object (bound 1.1), near 2, far 6."""
+    poses = np.stack([np.eye(4)] * n)
+    poses[:, 2, 3] = 4.0
+    split = Split(Cameras(poses, focal, 2, 2), np.zeros((n, 2, 2, 3), np.float32), np.ones((n, 2, 2), np.float32))
+    return Dataset({"train": split, "test": split}, 2.0, 6.0, {"kind": "3d"})
+
+
+@pytest.mark.parametrize("focal, final, start, bins, cells", [
+    # a pixel's footprint at the origin: 4 / focal; the bound 1.1 spans 2.2 / footprint + 1 vertices
+    (555.5, 193, 49, 699, 96),   # 306.5 vertices, more than 193: 193 = 48 * 4 + 1, from 49; bins: 4 * 2 * 192 / 2.2
+    (138.9, 77, 20, 277, 38),    # 77.4 vertices: 19 * 4 + 1 = 77, from 20; bins: ceil(4 * 2 * 76 / 2.2) = 277
+])
+def test_a_recipe_takes_its_lattice_and_samples_from_the_data(focal, final, start, bins, cells):
+    recipe = get_recipe("grid-3d").sized(views_at(focal))
+    args, occ = recipe.model.field_args, recipe.model.render.occupancy
+    assert (args["resolution"], args["initial_resolution"], occ.march_bins, occ.resolution) == (final, start, bins,
+                                                                                                cells)
+    assert recipe.sizing is None and recipe.name == "grid-3d"                  # sized once, under its own name
+    levels = get_recipe("hashlinear-3d").sized(views_at(focal)).model.field_args["resolutions"]
+    assert levels == (start, 2 * start - 1, final)                             # one level per doubling
+
+
+def test_a_size_set_on_the_recipe_stays():
+    recipe = get_recipe("grid-3d").override(resolution=65).sized(views_at(555.5))
+    args = recipe.model.field_args
+    assert (args["resolution"], args["initial_resolution"]) == (65, 17)        # 65 = 16 * 4 + 1: from 17
+    assert recipe.model.render.occupancy.march_bins == 233                     # ceil(4 * 2 * 64 / 2.2)

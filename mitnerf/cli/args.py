@@ -115,13 +115,14 @@ def overrides(args) -> dict:
     return {k: v for k, v in out.items() if v is not None}
 
 
-def recipe_from_args(args, dim: int):
-    """The recipe the flags describe for a dataset of ``dim``, checked."""
+def recipe_from_args(args, dataset):
+    """The recipe the flags describe for ``dataset`` (sized for it, :meth:`~mitnerf.train.recipes.Recipe.sized`),
+    checked."""
     if args.recipe and args.field:
         raise ConfigError("--recipe and --field both choose the recipe; pass one of them")
-    base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dim)
+    base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dataset.dim)
     check_set_types(base, args.sets)
-    recipe = base.override(**overrides(args)).validate()
+    recipe = base.override(**overrides(args)).sized(dataset).validate()
     check_step_memory(recipe)
     return recipe
 

@@ -60,7 +60,7 @@ def run_fit(args) -> int:
         if not args.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
         data, dataset = args.data, load_dataset(args.data)
-        recipe = recipe_from_args(args, dataset.dim)
+        recipe = recipe_from_args(args, dataset)
         backend, out_path = args.backend or "drjit", Path(args.out) if args.out else None
     check_dataset(dataset, need_test=True)
     out = Output(out_path, "fit", args.overwrite, inputs=[data],
@@ -70,6 +70,7 @@ def run_fit(args) -> int:
             raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")
         cfg = AutoConfig(families=(args.field,)) if args.field else None
         recipe, reasons = choose_recipe(dataset, cfg, overrides(args))
+        recipe = recipe.sized(dataset)
         for line in reasons:
             print(f"auto: {line}")
     print(f"recipe {recipe.summary()} ({backend})")

@@ -76,7 +76,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
         progress: bool | None = None) -> Run:
     """Train ``recipe`` on ``dataset['train']`` with engine ``backend`` (see the module docstring);
     ``resume``: the state :func:`~mitnerf.train.checkpoint.load_checkpoint` returned, to continue it."""
-    recipe.validate()
+    recipe = recipe.sized(dataset).validate()
     if recipe.model.field in CONDITIONED:
         raise ConfigError(f"a {recipe.model.field} field renders from input views and trains across scenes; "
                           "run `mitnerf experiment pixelnerf`, or pick another --field")

@@ -7,11 +7,40 @@ import copy
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import ConfigError
 from ..fields import FIELDS
 from ..render.occupancy import OccupancyConfig
 from ..render.pipeline import RenderConfig
 from .config import ModelConfig, TrainConfig
+
+
+SIZES = {"grid": ("resolution", "initial_resolution"), "hashlinear": ("resolutions",),
+         "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
+"""The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
+
+
+@dataclass
+class Sizing:
+    """How a recipe takes its sizes from the data (:meth:`Recipe.sized`): its finest lattice as fine as the training
+    images' pixels are at the scene, within a limit, reached coarse to fine; the sample spacing from the lattice's."""
+
+    vertices_per_pixel: float = 1.0
+    """Finest lattice spacing per pixel footprint at the scene's centre (the training cameras' median distance to
+    the origin over the focal length): 1, one vertex per pixel."""
+    max_resolution: int = 193
+    """Vertices per axis of the finest lattice at most: a dense grid's memory and the work of each step grow with
+    its cube."""
+    doublings: int = 2
+    """Coarse to fine: the lattice starts this many doublings coarser (the grid's ``initial_resolution``; the linearly
+    decoded hash grid's levels, one per doubling)."""
+    samples_per_vertex: float = 2.0
+    """Occupancy bins along a ray (the finest sample spacing) per lattice spacing."""
+    samples: int = 64
+    """Samples per ray (the occupancy sampler's slots)."""
+    fixed: tuple = ()
+    """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
 
 
 @dataclass
@@ -28,19 +57,56 @@ class Recipe:
     """Budget, batch, learning-rate schedule, losses."""
     about: str = ""
     """One line: what it is for."""
+    sizing: Sizing | None = None
+    """Where set, the field's lattice and the samples per ray come from the data (:meth:`sized`); None: as written."""
 
     def copy(self) -> "Recipe":
         return copy.deepcopy(self)
 
     def to_dict(self) -> dict:
         return {"name": self.name, "dim": self.dim, "model": self.model.to_dict(),
-                "train": dataclasses.asdict(self.train), "about": self.about}
+                "train": dataclasses.asdict(self.train), "about": self.about,
+                "sizing": None if self.sizing is None else dataclasses.asdict(self.sizing)}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Recipe":
         train = {k: v for k, v in d["train"].items() if k in TrainConfig.__dataclass_fields__}
+        sizing = d.get("sizing")
         return cls(d["name"], int(d["dim"]), ModelConfig.from_dict(d["model"]), TrainConfig(**train),
-                   d.get("about", ""))
+                   d.get("about", ""), None if sizing is None else Sizing(**{**sizing, "fixed": tuple(sizing["fixed"])}))
+
+    def sized(self, dataset) -> "Recipe":
+        """A copy with the sizes :attr:`sizing` takes from ``dataset`` (``self`` where it has none): the finest
+        lattice ``R`` (vertices per axis) spans the bound with one vertex per :attr:`Sizing.vertices_per_pixel` pixel
+        footprints, at most :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to
+        fine from ``c + 1``); occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
+        an occupancy cell per two lattice spacings (up to 128 per axis). A size set on the recipe stays."""
+        if self.sizing is None:
+            return self
+        out, s = self.copy(), self.sizing
+        out.sizing, args, r = None, out.model.field_args, out.model.render
+        d = s.doublings
+        if "resolution" in s.fixed or "resolutions" in s.fixed:
+            top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
+        else:
+            cams = dataset["train"].cameras
+            footprint = float(np.median(np.linalg.norm(cams.origins, axis=1))) / cams.focal
+            top = min(2 * dataset.bound / footprint * s.vertices_per_pixel + 1, s.max_resolution)
+        c = max(2, round((top - 1) / 2 ** d))
+        R = c * 2 ** d + 1
+        sizes = {"resolution": R, "initial_resolution": c + 1, "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)),
+                 "n_coarse": s.samples, "occupancy.resolution": min(128, (R - 1) // 2),
+                 "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
+                                                     / (2 * dataset.bound)))}
+        for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
+            if key not in s.fixed:
+                if key.startswith("occupancy."):
+                    setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
+                elif key == "n_coarse":
+                    r.n_coarse = sizes[key]
+                else:
+                    args[key] = sizes[key]
+        return out
 
     def override(self, **settings) -> "Recipe":
         """A copy with some settings replaced: a :class:`TrainConfig` or :class:`RenderConfig` field,
@@ -58,6 +124,8 @@ class Recipe:
                 setattr(out.model.render.occupancy, sub, value)
             else:
                 out.model.field_args[key] = value
+            if out.sizing is not None and any(key in keys for keys in SIZES.values()):
+                out.sizing = dataclasses.replace(out.sizing, fixed=(*out.sizing.fixed, key))
         return out._marked(self)
 
     def at_steps(self, steps: int, **settings) -> "Recipe":
@@ -110,12 +178,15 @@ class Recipe:
                          for k in ("depth_weight", "free_space_weight", "solid_weight", "distortion_weight",
                                    "opacity_weight")
                          if getattr(t, k))
-        return (f"{self.name}: {self.model.field} ({args}); {r.n_coarse}{fine} samples{occ}; "
+        s = self.sizing
+        sized = (f" (sizes from the data: {s.vertices_per_pixel:g} vertex per pixel, up to {s.max_resolution})"
+                 if s is not None else "")
+        return (f"{self.name}: {self.model.field} ({args}){sized}; {r.n_coarse}{fine} samples{occ}; "
                 f"{budget}, batch {t.batch_rays}, lr {t.lr:g} -> {t.lr_final:g}{losses}")
 
 
-def _r(name, dim, field, args, render, train, about) -> Recipe:
-    return Recipe(name, dim, ModelConfig(field, args, RenderConfig(**render)), TrainConfig(**train), about)
+def _r(name, dim, field, args, render, train, about, sizing=None) -> Recipe:
+    return Recipe(name, dim, ModelConfig(field, args, RenderConfig(**render)), TrainConfig(**train), about, sizing)
 
 
 _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock decides, not the step count
@@ -155,7 +226,7 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "dense voxel grid, view-dependent colour, coarse to fine 33 -> 129, occupancy grid, a high learning rate "
        "(a budget of seconds buys few steps), a colour TV of 3e-4 against 2D's 1e-2 (25 views of 100 x 100 "
        "carry the texture and the highlights: 2D's weight blurs both away), distortion + opacity losses, free "
-       "space and solid matter where the data has depth, 60 s: the default for 3D datasets"),
+       "space and solid matter where the data has depth, 60 s: the default for 3D datasets", Sizing()),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17,
                                               view_levels=1, initial_levels=1, add_level_at=(200, 600),
                                               tv_color_weight=3e-4),
@@ -164,7 +235,7 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "hash grid decoded linearly: levels 33 and 65 dense, 129 hashed into 2^17 entries, joining at steps 200 and "
        "600 (grid-3d's coarse to fine); grid-3d's losses, occupancy grid and learning rate, 60 s; 2.1 M "
-       "parameters against grid-3d's 27.9 M at 129^3"),
+       "parameters against grid-3d's 27.9 M at 129^3", Sizing()),
     _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4, mode="native"),
        dict(n_coarse=64, n_fine=32),
        dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=2048),
