@@ -180,23 +180,24 @@ def views_at(focal: float, n: int = 3) -> Dataset:
     return Dataset({"train": split, "test": split}, 2.0, 6.0, {"kind": "3d"})
 
 
-@pytest.mark.parametrize("focal, final, start, bins, cells", [
-    # a pixel's footprint at the origin: 4 / focal; the bound 1.1 spans 2.2 / footprint + 1 vertices
-    (555.5, 193, 49, 699, 96),   # 306.5 vertices, more than 193: 193 = 48 * 4 + 1, from 49; bins: 4 * 2 * 192 / 2.2
-    (138.9, 77, 20, 277, 38),    # 77.4 vertices: 19 * 4 + 1 = 77, from 20; bins: ceil(4 * 2 * 76 / 2.2) = 277
+@pytest.mark.parametrize("focal, final, start, bins, cells, levels", [
+    # a pixel's footprint at the origin: 4 / focal; the bound 1.1 spans 2.2 / footprint lattice spacings, 1.5 per
+    # pixel: 3.3 focal / 4 + 1 vertices. grid-3d: at most 161, two doublings; one bin per spacing over [2, 6]: 4 (R -
+    # 1) / 2.2 bins; a cell per two spacings. hashlinear-3d: at most 385, three doublings, a level each
+    (555.5, 161, 41, 291, 80, (49, 97, 193, 385)),   # 459 vertices: 161 = 40 * 4 + 1; 385 = 48 * 8 + 1
+    (138.9, 117, 30, 211, 58, (15, 29, 57, 113)),    # 115.6 vertices: 29 * 4 + 1 = 117; 14 * 8 + 1 = 113
 ])
-def test_a_recipe_takes_its_lattice_and_samples_from_the_data(focal, final, start, bins, cells):
+def test_a_recipe_takes_its_lattice_and_samples_from_the_data(focal, final, start, bins, cells, levels):
     recipe = get_recipe("grid-3d").sized(views_at(focal))
     args, occ = recipe.model.field_args, recipe.model.render.occupancy
     assert (args["resolution"], args["initial_resolution"], occ.march_bins, occ.resolution) == (final, start, bins,
                                                                                                 cells)
     assert recipe.sizing is None and recipe.name == "grid-3d"                  # sized once, under its own name
-    levels = get_recipe("hashlinear-3d").sized(views_at(focal)).model.field_args["resolutions"]
-    assert levels == (start, 2 * start - 1, final)                             # one level per doubling
+    assert get_recipe("hashlinear-3d").sized(views_at(focal)).model.field_args["resolutions"] == levels
 
 
 def test_a_size_set_on_the_recipe_stays():
     recipe = get_recipe("grid-3d").override(resolution=65).sized(views_at(555.5))
     args = recipe.model.field_args
     assert (args["resolution"], args["initial_resolution"]) == (65, 17)        # 65 = 16 * 4 + 1: from 17
-    assert recipe.model.render.occupancy.march_bins == 233                     # ceil(4 * 2 * 64 / 2.2)
+    assert recipe.model.render.occupancy.march_bins == 117                     # ceil(4 * 64 / 2.2)

@@ -171,7 +171,8 @@ class Recipe:
         args = ", ".join(f"{k}={v}" for k, v in args.items())
         r, t = self.model.render, self.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
-        occ = ", occupancy grid" if r.occupancy.enabled else ""
+        occ = (f", occupancy grid {r.occupancy.resolution}^{self.dim} of {r.occupancy.march_bins} bins a ray"
+               if r.occupancy.enabled else "")
         fine = f" + {r.n_fine} fine" if r.n_fine else ""
         reach = {"solid_weight": f" (reach {t.solid_thickness:g})"}
         losses = "".join(f", {k.rsplit('_', 1)[0].replace('_', ' ')} {getattr(t, k):g}{reach.get(k, '')}"
@@ -221,21 +222,26 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
     _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-4,
                                   view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
-       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=2048, distortion_weight=1e-3, opacity_weight=1e-3,
+       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
-       "dense voxel grid, view-dependent colour, coarse to fine 33 -> 129, occupancy grid, a high learning rate "
-       "(a budget of seconds buys few steps), a colour TV of 3e-4 against 2D's 1e-2 (25 views of 100 x 100 "
-       "carry the texture and the highlights: 2D's weight blurs both away), distortion + opacity losses, free "
-       "space and solid matter where the data has depth, 60 s: the default for 3D datasets", Sizing()),
-    _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17,
-                                              view_levels=1, initial_levels=1, add_level_at=(200, 600),
+       "dense voxel grid, view-dependent colour, its lattice from the data (1.5 vertices per pixel footprint at the "
+       "scene, at most 161^3: the grid's training state grows with its cube) reached coarse to fine from a quarter "
+       "of it at steps 200 and 600, an occupancy sample per lattice spacing, batches of 8192 rays, a high learning "
+       "rate (a budget of seconds buys few steps), a colour TV of 3e-4 against 2D's 1e-2 (few views of 100 x 100 "
+       "carry texture and highlights: 2D's weight blurs both away), distortion + opacity losses, free space and "
+       "solid matter where the data has depth or alpha, 60 s: the default for 3D datasets",
+       Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0)),
+    _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
+                                              view_levels=1, initial_levels=2, add_level_at=(300, 700),
                                               tv_color_weight=3e-4),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
-       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=2048, distortion_weight=1e-3, opacity_weight=1e-3,
+       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
-       "hash grid decoded linearly: levels 33 and 65 dense, 129 hashed into 2^17 entries, joining at steps 200 and "
-       "600 (grid-3d's coarse to fine); grid-3d's losses, occupancy grid and learning rate, 60 s; 2.1 M "
-       "parameters against grid-3d's 27.9 M at 129^3", Sizing()),
+       "hash grid decoded linearly: four levels, one per doubling up to the data's lattice (1.5 vertices per pixel "
+       "footprint, at most 385^3), the two coarsest dense, the finer ones hashed into 2^19 entries, joining at steps "
+       "300 and 700; grid-3d's losses, occupancy grid, batch and learning rate, 60 s; a few million parameters where "
+       "grid-3d has tens of millions",
+       Sizing(vertices_per_pixel=1.5, max_resolution=385, doublings=3, samples_per_vertex=1.0)),
     _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4, mode="native"),
        dict(n_coarse=64, n_fine=32),
        dict(iters=3000, lr=5e-3, lr_final=2e-4, batch_rays=2048),
