@@ -40,7 +40,7 @@ def backend(name, model_cfg, dataset, batch=1024, threads=2):
     """A backend of engine ``name`` holding ``dataset``'s training rays."""
     tc = TrainConfig(batch_rays=batch, threads=threads, progress=False)
     be = make_backend(name, model_cfg, tc, dataset.dim, dataset.bound, dataset.near, dataset.far)
-    be.set_data(dataset["train"].rays(model_cfg.render.background, **tc.ray_args()))
+    be.set_data(dataset["train"].rays(model_cfg.render.render_background(), **tc.ray_args()))
     return be
 
 

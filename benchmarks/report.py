@@ -5,6 +5,7 @@ through :func:`mitnerf.results.record_result`, each with the command and the mac
 produced it). This script renders it:
 
 * ``RESULTS.md``: every entry, grouped by area, with its command, machine and date, and the fit table's rows;
+* the lego's rows beside the published figures (:func:`lego_table`);
 * the README's results table, between ``<!-- results:begin -->`` and ``<!-- results:end -->``
   (the entries whose key is listed in ``README_KEYS``); in both, a table whose entries come from more than one
   kind of CPU is split into one per kind (:func:`tables`): speeds measured on two kinds do not compare;
@@ -67,6 +68,26 @@ def rows_table(key: str, entry: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def lego_table(results: dict) -> str:
+    """``lego/<budget>`` (and ``lego/nerfacto-<budget>``) beside the published figures (``benchmarks/lego.py``)."""
+    if __package__:                       # imported as benchmarks.report (the tests)
+        from .lego import ANCHORS
+    else:                                 # run as python benchmarks/report.py
+        from lego import ANCHORS
+
+    ours = {k: e for k, e in results.items() if k.startswith("lego/")}
+    if not ours:
+        return ""
+    lines = ["Lego: ours at 400 x 400 on the machine named, the published figures at 800 x 800 on a GPU; all over "
+             "white, on the 200 test views.\n", "| run | test PSNR [dB] | SSIM | training | hardware |", "|---|---|---|---|---|"]
+    for key, e in ours.items():
+        v = e["values"]
+        lines.append(f"| `{key}` ({v.get('recipe', '')}) | {v['psnr']:.2f} | {v['ssim']:.3f} | {v['train_s']:.0f} s, "
+                     f"{v['steps']} steps | {machine_line(e['machine'])} |")
+    lines += [f"| {name} (published) | {db} | | {when} | {gpu} |" for name, db, when, gpu in ANCHORS]
+    return "\n".join(lines) + "\n"
+
+
 REPORTED_PRESET = 27.8
 """Issue 14's report: the first wave's grid preset on its first glossy dataset, 10 s (dB)."""
 
@@ -118,6 +139,8 @@ def main() -> int:
     for area, entries in groups.items():
         text += [f"## {area}\n", tables(entries)]
         text += [rows_table(k, e) for k, e in entries.items() if k.startswith("fits/") and "rows" in e["values"]]
+        if area == "lego":
+            text.append(lego_table(results))
     (ROOT / "RESULTS.md").write_text("\n".join(text))
     readme = ROOT / "README.md"
     chosen = {k: results[k] for k in README_KEYS if k in results}

@@ -128,6 +128,7 @@ def mlp_part_torch(field, reps: int, compile: bool) -> float:
 def plain_torch(ds, width, depth, compile: bool):
     """A step function and its inputs, for the self-contained torch NeRF."""
     rays = ds["train"].rays((0, 0, 0))
+    rays = rays.batch(np.arange(len(rays)))            # every pixel, in memory
     step = make_step(2, depth, width, 8, 5, 64, 64, ds.near, ds.far, compile=compile)
     rng = np.random.default_rng(0)
 

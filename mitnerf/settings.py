@@ -65,13 +65,15 @@ def docs(cls) -> dict[str, str]:
     return out
 
 
-def _shape(tp) -> tuple[str, bool, tuple | None]:
-    """``(kind, may be None, literal choices)`` of an annotation: kind is bool, int, float, str, tuple, dict or
-    a dataclass."""
+def _shape(tp, value=None) -> tuple[str, bool, tuple | None]:
+    """``(kind, may be None, literal choices)`` of an annotation (of a union, the member ``value`` is: a list is
+    a tuple): kind is bool, int, float, str, tuple, dict or a dataclass."""
     optional, choices = False, None
     if typing.get_origin(tp) in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(tp) if a is not type(None)]
-        optional, tp = len(args) < len(typing.get_args(tp)), args[0]
+        optional = len(args) < len(typing.get_args(tp))
+        member = tuple if isinstance(value, list) else type(value)
+        tp = member if member in args else args[0]
     if typing.get_origin(tp) is typing.Literal:
         choices = typing.get_args(tp)
         tp = type(choices[0])
@@ -88,7 +90,7 @@ def name_of(f: dataclasses.Field, prefix: str = "") -> str:
 def check_value(cls, f: dataclasses.Field, value, prefix: str = ""):
     """``value`` for the field ``f`` of ``cls``, checked against its declaration (a list becomes a tuple); raises
     :class:`ConfigError` naming the setting as the user writes it."""
-    kind, optional, choices = _shape(types_of(cls)[f.name])
+    kind, optional, choices = _shape(types_of(cls)[f.name], value)
     s, what = spec(f), name_of(f, prefix)
     choices = s.get("choices") or choices
     if value is None:
@@ -243,7 +245,7 @@ def add_flags(group, cls, *, prefix: str = "", dest: str = "", overrides: bool =
         kind, optional, choices = _shape(types_of(cls)[f.name])
         unit = f" [{s['unit']}]" if s.get("unit") else ""
         default = None if overrides else default_of(f)
-        told = shown(key) if shown else s.get("shown") or _show(f)
+        told = s.get("shown") or (shown(key) if shown else _show(f))
         text = f"{summary(docs(cls).get(f.name, ''))}{unit} " + \
             ("(required)" if default is dataclasses.MISSING else f"(default: {told})")
         if not s["flag"].startswith("-"):                   # a positional argument (a list: any number of words)
@@ -277,17 +279,17 @@ def default_of(f: dataclasses.Field):
     return dataclasses.MISSING
 
 
-def parse_color(text: str) -> tuple:
-    """``black``, ``white`` or ``r,g,b`` -> an RGB tuple."""
-    named = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
-    if text in named:
-        return named[text]
+def parse_color(text: str, names: tuple = ()) -> str | tuple:
+    """One of ``names``, else ``r,g,b`` -> an RGB tuple."""
+    if text in names:
+        return text
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
         values = ()
     if len(values) != 3:
-        raise ConfigError(f"expected black, white or r,g,b with values in [0, 1], got {text!r}")
+        raise ConfigError(f"expected {', '.join(names) + ' or ' if names else ''}r,g,b with values in [0, 1], "
+                          f"got {text!r}")
     return values
 
 

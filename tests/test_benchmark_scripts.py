@@ -81,3 +81,23 @@ def test_poses_fit_pair_records_both_fits_and_a_collapsed_one(results, monkeypat
     entry = load_results()["poses/fit/fern"]
     assert entry["values"]["status"] == {"ours": "ok", "true": "collapsed: constant: x"}
     assert "the fit on true poses collapsed" in entry["summary"]
+def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, monkeypatch, capsys):
+    from benchmarks import lego
+
+    assert lego.main(["--data", str(tmp_path / "absent")]) == 0
+    assert capsys.readouterr().out.startswith("lego: skipped, no Blender lego at ")
+    assert load_results() == {}
+    (tmp_path / "transforms_train.json").write_text("{}")
+    metrics = {"psnr": 30.5, "ssim": 0.95, "train_time": 600.2, "steps": 4000, "eval_time": 41.0, "peak_memory": 1.5,
+               "views": 200, "background": "white", "recipe": "grid-3d"}
+    monkeypatch.setattr(lego, "fit", lambda data, budget: {
+        "metrics": dict(metrics, train_time=float(budget)), "wall": 700.0, "first": "recipe grid-3d: ...",
+        "last": "test PSNR 30.50 dB", "command": f"python -m mitnerf fit --data D --time-budget {budget}"})
+    assert lego.main(["--data", str(tmp_path), "--parts", "600"]) == 0
+    entry = load_results()["lego/600"]
+    assert entry["values"]["psnr"] == 30.5 and entry["values"]["eval_s"] == 41.0 and entry["values"]["views"] == 200
+    assert entry["command"].endswith("--time-budget 600") and "3600" not in load_results()
+    from benchmarks import report
+
+    table = report.lego_table(load_results())
+    assert "| `lego/600` (grid-3d) | 30.50 | 0.950 | 600 s, 4000 steps |" in table and "| NeRF (published) | 32.54 |" in table

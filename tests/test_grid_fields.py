@@ -66,10 +66,11 @@ def test_occupancy_keeps_every_sample_with_density():
     ys = np.array([-0.9, -0.4, 0.05, 0.3, 0.8], np.float32)
     o = [Float(np.full(n_rays, -1.0, np.float32)), Float(ys)]
     d = [Float(np.ones(n_rays, np.float32)), Float(np.zeros(n_rays, np.float32))]
-    sampler = OccupiedSampler(grid.occupied, 32, 64, 1.0, 8, UInt32(1), jitter=True)
+    sampler = OccupiedSampler(*grid.lookup, 32, 64, 1.0, 8, UInt32(1), jitter=True)
     ex = sampler.build(o, d, 0.0, 2.0)
     t = np.asarray(ex.t_flat).reshape(n_rays, 32)
     delta = np.asarray(ex.delta_flat).reshape(n_rays, 32)
+    np.testing.assert_array_equal(np.asarray(ex.count), (delta > 0).sum(1))      # the integral stops there
     for r in range(n_rays):
         mids = (np.arange(64) + 0.5) / 32.0
         x_mid = -1.0 + mids
@@ -79,6 +80,25 @@ def test_occupancy_keeps_every_sample_with_density():
         got = set(np.floor(used * 32.0).astype(int))
         assert got == wanted                            # every dense bin, and only those
         np.testing.assert_allclose(delta[r][delta[r] > 0], 1 / 32.0)
+
+
+def test_the_sampler_looks_only_inside_the_box_of_occupied_cells():
+    """One occupied cell of a 4 x 4 grid over [-1, 1]^2, cell (2, 1): x in [0, 0.5], y in [-0.5, 0]. The box is that
+    cell; a ray through it gets the samples of its bins (16 bins of 0.125 over [0, 2] from x = -1: bins 8..11, at
+    x -1 + 0.125 (k + 0.5), inside [0, 0.5) for k = 8, 9, 10, 11), a ray that misses it none, as without the box."""
+    cfg = OccupancyConfig(enabled=True, resolution=4, warmup=0, threshold=0.01, march_bins=16)
+    grid = OccupancyGrid(cfg, 2, bound=1.0)
+    grid.update(lambda x: dr.select((x[0] > 0) & (x[0] < 0.5) & (x[1] > -0.5) & (x[1] < 0), 5.0, 0.0), 0, 0)
+    np.testing.assert_allclose(np.asarray(grid.box), [0.0, -0.5, 0.5, 0.0])
+    o = [Float([-1.0, -1.0]), Float([-0.25, 0.75])]
+    d = [Float([1.0, 1.0]), Float([0.0, 0.0])]
+    whole = (grid.occupied, Float([-1.0, -1.0, 1.0, 1.0]))           # a box around the whole grid
+    got, every = (OccupiedSampler(*lookup, 8, 16, 1.0, 4, UInt32(0), jitter=False).build(o, d, 0.0, 2.0)
+                  for lookup in (grid.lookup, whole))
+    np.testing.assert_array_equal(np.asarray(got.count), [4, 0])
+    np.testing.assert_array_equal(np.asarray(got.t_flat)[:4], 0.125 * (np.arange(8, 12) + 0.5))
+    for a, b in ((got.t_flat, every.t_flat), (got.delta_flat, every.delta_flat), (got.count, every.count)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
 def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():

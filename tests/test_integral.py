@@ -161,3 +161,19 @@ def test_w_min_zero_counts_every_colour(method):
     w0, w1 = 1 - math.exp(-5e-5), math.exp(-5e-5) * (1 - math.exp(-1))
     np.testing.assert_allclose([float(c[0]) for c in out.rgb], [w0 + w1, w0, w0 + math.exp(-1.00005)],
                                rtol=1e-5, atol=1e-7)
+
+
+def test_a_march_ends_where_transmittance_falls_to_stop():
+    # one ray, samples at t = 1, 2, 3 (far 4, delta 1), sigma = 10, 10, 10, colours red, green, blue, background
+    # black. w = [1 - e^-10, e^-10 (1 - e^-10), e^-20 (1 - e^-10)] = [0.99995, 4.5e-5, 2.1e-9]: after the first
+    # sample T = e^-10 = 4.5e-5 < stop 1e-4 and the march ends; the colour is the same (the later weights are
+    # below w_min = 1e-4 and add none either way), the opacity 1 - 4.5e-5 instead of 1 - 9.4e-14.
+    sigma, rgb, t = [[10.0, 10.0, 10.0]], [[[1, 0, 0], [0, 1, 0], [0, 0, 1]]], [[1.0, 2.0, 3.0]]
+    field = PiecewiseField(sigma, rgb, t)
+    o, d = [Float([0.0]), Float([0.0])], [Float([1.0]), Float([0.0])]
+    out = [volume_render(field, field.params, o, d, 0.5, 4.0, Explicit(Float([1.0, 2.0, 3.0]), 3), (0, 0, 0),
+                         stop=stop) for stop in (0.0, 1e-4)]
+    np.testing.assert_array_equal([np.asarray(c) for c in out[0].rgb], [np.asarray(c) for c in out[1].rgb])
+    assert np.asarray(out[1].rgb[0])[0] == pytest.approx(1 - math.exp(-10), rel=1e-6)
+    assert np.asarray(out[1].opacity)[0] == pytest.approx(1 - math.exp(-10), rel=1e-6)
+    assert np.asarray(out[0].opacity)[0] == pytest.approx(1.0, abs=1e-6)

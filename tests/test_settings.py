@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from types import SimpleNamespace
 
 import pytest
 
@@ -146,4 +147,4 @@ def test_set_and_flag_give_the_same_error(tmp_path, capsys):
         from mitnerf.cli.args import recipe_from_args
         args = build_parser().parse_args(["fit", "--data", "x", *argv])
         with pytest.raises(ConfigError, match=words):
-            recipe_from_args(args, 3)
+            recipe_from_args(args, SimpleNamespace(dim=3))           # refused before the data sizes the recipe

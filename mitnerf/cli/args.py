@@ -51,11 +51,12 @@ def overrides(args) -> dict:
     return {**out, **dict(args.sets)}
 
 
-def recipe_from_args(args, dim: int):
-    """The recipe the flags describe for a dataset of ``dim``, checked."""
+def recipe_from_args(args, dataset):
+    """The recipe the flags describe for ``dataset`` (sized for it, :meth:`~mitnerf.train.recipes.Recipe.sized`),
+    checked."""
     if args.recipe and args.field:
         raise ConfigError("--recipe and --field both choose the recipe; pass one of them")
-    base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dim)
+    base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dataset.dim)
     for key, value in args.sets:
         where = base.declared(key)
         if where is None:
@@ -63,7 +64,7 @@ def recipe_from_args(args, dim: int):
                               f"`mitnerf recipes --verbose` lists its settings")
         check_value(*where, value, prefix="occupancy." if key.startswith("occupancy.") else "")
     flags = {k: v for k, v in overrides(args).items() if k not in dict(args.sets)}
-    recipe = base.override(**flags).override(nulls=True, **dict(args.sets))._marked(base).validate()
+    recipe = base.override(**flags).override(nulls=True, **dict(args.sets))._marked(base).sized(dataset).validate()
     check_step_memory(recipe)
     return recipe
 

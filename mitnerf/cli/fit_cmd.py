@@ -17,7 +17,8 @@ from ..errors import ConfigError, Terminated
 from ..results import load_results
 from ..train.auto import AutoConfig, choose_recipe
 from ..train.checkpoint import checkpoint_bytes, load_checkpoint, read_manifest
-from ..train.fit import check_dataset, fit
+from ..data.rays import background_name
+from ..train.fit import check_dataset, fit, resolve_background
 from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
@@ -91,7 +92,7 @@ def run_fit(args) -> int:
         if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
         data, dataset = cmd.data, load_dataset(cmd.data)
-        recipe = recipe_from_args(args, dataset.dim)
+        recipe = recipe_from_args(args, dataset)
         backend = cmd.backend or "drjit"
         out_path = Path(cmd.out) if cmd.out else fresh_folder(Path("out"), f"{dataset.name}-{recipe.name.rstrip('+')}")
     check_dataset(dataset, need_test=True)
@@ -104,9 +105,14 @@ def run_fit(args) -> int:
         print("auto: probing candidates (each trains as long as the real run)", flush=True)
         recipe, reasons = choose_recipe(dataset, cfg, overrides(args), say=lambda line: print(f"auto: {line}",
                                                                                                flush=True))
+        recipe = recipe.sized(dataset)
         for line in reasons:
             print(f"auto: {line}")
     print(f"recipe {recipe.summary()} ({backend})")
+    n, views = len(dataset["test"]), recipe.train.test_views
+    where = (resolve_background(recipe, dataset) if not cmd.resume
+             else f"background {background_name(recipe.model.render.background)}")
+    print(f"{where}; test on " + (f"{views} of {n} views (--test-views)" if 0 < views < n else f"all {n} views"))
     print(f"writing to {out.path}" + ("" if cmd.out or cmd.resume else " (choose with --out)"), flush=True)
     return train_and_report(dataset, recipe, backend, out, resume, figures=cmd.figures)
 
@@ -168,6 +174,7 @@ def train_and_report(dataset, recipe, backend: str, out: Output, resume=None, fi
     print(f"wrote {out.path}")
     if signals:
         raise (Terminated if signals[0] == signal.SIGTERM else KeyboardInterrupt)()
+    print(f"evaluated {record.views} views in {record.eval_time:.1f} s; peak memory {record.peak_memory:.2f} GiB")
     print(record.line() + f" ({backend})")
     return 0 if record.status == "ok" else 1
 

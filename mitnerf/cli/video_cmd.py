@@ -76,7 +76,7 @@ def run(args) -> int:
     target = Output(args.out, "video", args.overwrite, inputs=[args.checkpoint])
     model, _ = load_checkpoint(args.checkpoint, args.backend, dim=3, need="`mitnerf video` (a 360 degree orbit)")
     with target.staged() as tmp:
-        video = orbit_video(model.backend, cfg, tmp, tuple(model.recipe.model.render.background))
+        video = orbit_video(model.backend, cfg, tmp, model.recipe.model.render.render_background())
         if args.mesh:
             write_mesh_outputs(model, tmp, level, args.mesh_resolution, cfg)
     for name in ("color.gif", "color.mp4", "depth.gif", "depth.mp4", "mesh.ply", "mesh.png", "chamfer.json"):

@@ -208,6 +208,16 @@ class Cameras:
         unit = lambda frames, raw, _: (raw / np.linalg.norm(raw, axis=-1, keepdims=True))[None]
         return self._per_frame(unit, (self.height, self.width, self.dim), index)
 
+    def local_rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Camera-space rays per group of frames that share intrinsics: ``(group of each frame [n], unit pixel-centre
+        directions [g, H, W, dim], each pixel's extent as steps of them [g, H, W, 2, dim])`` (:meth:`footprint`
+        before the rotation)."""
+        unique, inverse = self._groups()
+        parts = [self._directions(p, steps=True) for p in unique]
+        norm = [np.linalg.norm(raw, axis=-1) for raw, _ in parts]
+        return (inverse, np.stack([raw / n[..., None] for (raw, _), n in zip(parts, norm)]),
+                np.stack([steps / n[..., None, None] for (_, steps), n in zip(parts, norm)]))
+
     def depth_stretch(self) -> np.ndarray:
         """``[n]``: the largest distance along a pixel-centre ray per unit of depth along the optical axis (3D: the
         view axis), over each frame's pixels (>= 1: a depth bound times it bounds the distance)."""

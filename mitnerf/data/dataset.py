@@ -7,33 +7,18 @@ beside them, so any background can be composited later: ``target = color + (1 - 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import MitnerfError
 from .cameras import Cameras
-from .carve import solid_extent
+from .carve import pixel_of, solid_extent
 from .color import display_color
+from .rays import TrainingRays
 
 SPLITS = ("train", "val", "test")
-
-
-@dataclass
-class RaySet:
-    """Every pixel of some views as a ray, flat (what training draws its batches from)."""
-
-    origins: np.ndarray     # [P, D]
-    directions: np.ndarray  # [P, D] unit
-    target: np.ndarray      # [P, 3] display-space colour over the background
-    depth: np.ndarray       # [P] distance along the ray, 0 where unknown or a miss
-    hit: np.ndarray         # [P] 1.0 where the depth is known (the ray hits), else 0.0
-    free: np.ndarray        # [P] empty along the ray up to here (:func:`free_distance`), 0 where unknown
-    footprint: np.ndarray   # [P, 2, D] the pixel's extent (:meth:`Cameras.footprint`)
-    solid: np.ndarray       # [P] matter behind the depth up to here (:func:`~mitnerf.data.carve.solid_extent`), 0: none
-
-    def __len__(self) -> int:
-        return len(self.origins)
 
 
 def free_distance(depth: np.ndarray | None, mask: np.ndarray | None, alpha: np.ndarray) -> np.ndarray:
@@ -62,36 +47,87 @@ def free_distance(depth: np.ndarray | None, mask: np.ndarray | None, alpha: np.n
     return np.where(empty, np.inf, 0.0)
 
 
-@dataclass
+def eight_bit(color: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Straight 8-bit colour and coverage ``(uint8 [..., 3], uint8 [...])`` that :func:`decode` turns back into
+    exactly ``color`` (premultiplied, float32) and ``alpha``, or None where they did not come from 8-bit values."""
+    a8 = np.rint(alpha * 255.0).clip(0, 255).astype(np.uint8)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rgb8 = np.rint(np.where(alpha[..., None] > 0, color / alpha[..., None], 0.0) * 255.0).clip(0, 255)
+    rgb8 = rgb8.astype(np.uint8)
+    back_c, back_a = decode(rgb8, a8)
+    return (rgb8, a8) if np.array_equal(back_c, color) and np.array_equal(back_a, alpha) else None
+
+
+def decode(rgb8: np.ndarray, a8: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """8-bit straight colour and coverage -> premultiplied display colour and coverage, float32, as an 8-bit image
+    file is read (``value / 255``, then colour times coverage)."""
+    a = a8.astype(np.float32) / 255.0
+    return (rgb8.astype(np.float32) / 255.0) * a[..., None], a
+
+
 class Split:
-    """The views of one split, all arrays ``[n, H, W, ...]``."""
+    """The views of one split, all arrays ``[n, H, W, ...]``. Colour and coverage read from 8-bit images are held
+    as those 8 bits (a quarter of float32's memory) and decoded where they are used: per batch of training rays
+    (:meth:`pixels`), per view when evaluating (:meth:`target`)."""
 
-    cameras: Cameras
-    color: np.ndarray
-    """Display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32, ``[n, H, W, 3]``."""
-    alpha: np.ndarray
-    """Coverage in [0, 1], ``[n, H, W]`` (all ones when a format has no alpha)."""
-    depth: np.ndarray | None = None
-    """Distance along each pixel-centre ray, ``inf`` on a miss; ``None`` when unknown."""
-    mask: np.ndarray | None = None
-    """Whether the pixel-centre ray hits the object; ``None`` when unknown."""
-    linear: np.ndarray | None = None
-    """Exact linear RGB over black (datasets rendered here), ``[n, H, W, 3]``."""
-    _extents: dict = field(default_factory=dict, init=False, repr=False, compare=False)
-    """Solid extents already carved, by ``(reach, margin)`` (a fit --auto search fits the split many times)."""
-
-    def __post_init__(self):
-        n, H, W = len(self.cameras), self.cameras.height, self.cameras.width
-        if self.color.shape[0] != n:
-            raise MitnerfError(f"{self.color.shape[0]} images but {n} camera poses; "
-                               "every frame needs exactly one image")
-        if self.color.shape[1:] != (H, W, 3):
-            raise MitnerfError(f"images are {self.color.shape[1:3]} pixels but the cameras expect {(H, W)}; "
+    def __init__(self, cameras: Cameras, color: np.ndarray, alpha: np.ndarray, depth: np.ndarray | None = None,
+                 mask: np.ndarray | None = None, linear: np.ndarray | None = None):
+        """``color``: display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32 ``[n, H, W, 3]``,
+        or an 8-bit image's straight colour (uint8, with ``alpha`` uint8 too: held as given);
+        ``alpha``: coverage in [0, 1], ``[n, H, W]`` (all ones when a format has none); ``depth``: distance along
+        each pixel-centre ray, ``inf`` on a miss (None: unknown); ``mask``: whether the pixel-centre ray hits the
+        object (None: unknown); ``linear``: exact linear RGB over black (datasets rendered here)."""
+        self.cameras, self.depth, self.mask, self.linear = cameras, depth, mask, linear
+        n, H, W = len(cameras), cameras.height, cameras.width
+        if color.shape[0] != n:
+            raise MitnerfError(f"{color.shape[0]} images but {n} camera poses; every frame needs exactly one image")
+        if color.shape[1:] != (H, W, 3):
+            raise MitnerfError(f"images are {color.shape[1:3]} pixels but the cameras expect {(H, W)}; "
                                "fix the resolution in the transforms file")
         for name in ("depth", "mask"):
             arr = getattr(self, name)
             if arr is not None and arr.shape != (n, H, W):
                 raise MitnerfError(f"{name} maps have shape {arr.shape[1:]}, expected {(H, W)} for {n} frames")
+        if (color.dtype == np.uint8) != (alpha.dtype == np.uint8):
+            raise MitnerfError("8-bit colour needs 8-bit coverage beside it (and float colour float coverage)")
+        self._color, self._alpha = color, alpha
+        if color.dtype != np.uint8 and linear is None:        # 8-bit images, read as floats: keep the 8 bits
+            parts = [eight_bit(c, a) for c, a in zip(color, alpha)]
+            if parts and all(p is not None for p in parts):
+                self._color, self._alpha = np.stack([p[0] for p in parts]), np.stack([p[1] for p in parts])
+        self._extents: dict = {}
+        """Solid extents already carved, by ``(reach, margin)`` (a fit --auto search fits the split many times)."""
+
+    @property
+    def eight_bit(self) -> bool:
+        """Whether colour and coverage are held as 8-bit values."""
+        return self._color.dtype == np.uint8
+
+    @property
+    def color(self) -> np.ndarray:
+        """Display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32, ``[n, H, W, 3]`` (decoded
+        for all views at once when held in 8 bits: per batch or per view, use :meth:`pixels` or :meth:`target`)."""
+        return decode(self._color, self._alpha)[0] if self.eight_bit else self._color
+
+    @property
+    def alpha(self) -> np.ndarray:
+        """Coverage in [0, 1], float32 ``[n, H, W]``."""
+        return self._alpha.astype(np.float32) / 255.0 if self.eight_bit else self._alpha
+
+    @property
+    def has_alpha(self) -> bool:
+        """Whether coverage tells empty pixels (a format without alpha has it all ones)."""
+        return bool(self._alpha.min() < (255 if self.eight_bit else 1.0))
+
+    def covered(self, index: np.ndarray) -> np.ndarray:
+        """Whether the pixels at flat indices ``index`` have any coverage (alpha > 0)."""
+        return self._alpha.reshape(-1)[index] > 0
+
+    def pixels(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Premultiplied colour ``[m, 3]`` and coverage ``[m]`` (float32) of the pixels at flat indices ``index``
+        (``[m]`` into ``[n * H * W]``)."""
+        c, a = self._color.reshape(-1, 3)[index], self._alpha.reshape(-1)[index]
+        return decode(c, a) if self.eight_bit else (c, a)
 
     @classmethod
     def from_linear(cls, cameras: Cameras, linear, alpha, depth=None, mask=None) -> "Split":
@@ -110,34 +146,31 @@ class Split:
                             else np.concatenate([getattr(p, name) for p in parts]))
         cams = Cameras.concatenate([p.cameras for p in parts])
         return cls(cams, cat("color"), cat("alpha"), cat("depth"), cat("mask"), cat("linear"))
+        cams = Cameras.concatenate([p.cameras for p in parts])
+        return cls(cams, cat("_color"), cat("_alpha"), cat("depth"), cat("mask"), cat("linear"))
 
-    def target(self, background=(0.0, 0.0, 0.0)) -> np.ndarray:
-        """Colour composited over ``background`` (display space), ``[n, H, W, 3]``."""
-        bg = np.asarray(background, np.float32)
-        return self.color + (1.0 - self.alpha[..., None]) * bg
+    def target(self, background=(0.0, 0.0, 0.0), views=None) -> np.ndarray:
+        """Colour composited over ``background`` (display space), ``[n, H, W, 3]``; ``views``: only these."""
+        pick = slice(None) if views is None else views
+        c, a = self._color[pick], self._alpha[pick]
+        c, a = decode(c, a) if self.eight_bit else (c, a)
+        return c + (1.0 - a[..., None]) * np.asarray(background, np.float32)
 
-    def rays(self, background, solid_reach: float = 0.0, margin: float = 0.0) -> RaySet:
-        """Every pixel of the split as a ray, with its colour over ``background`` and its depth; the solid extent
-        behind the depth up to ``solid_reach`` (0: not computed), carved with free-space ``margin``."""
-        o, d = self.cameras.rays()
-        D = o.shape[-1]
-        target = self.target(background).reshape(-1, 3)
-        if self.depth is not None:
-            hit = (self.mask if self.mask is not None else np.isfinite(self.depth)).reshape(-1)
-            depth = np.where(hit, self.depth.reshape(-1), 0.0)
-        else:
-            hit, depth = np.zeros(len(target), bool), np.zeros(len(target))
-        free = free_distance(self.depth, self.mask, self.alpha)
-        solid = np.zeros(hit.shape)
+    def rays(self, background, solid_reach: float = 0.0, margin: float = 0.0) -> TrainingRays:
+        """The split's pixels as training rays over ``background`` (``(r, g, b)`` or ``"random"``), drawn per
+        batch; the solid extent behind the depth up to ``solid_reach`` (0: not computed), carved with free-space
+        ``margin``."""
+        solid = None
         if solid_reach > 0 and self.depth is not None:
             key = (float(solid_reach), float(margin))
             if key not in self._extents:
-                self._extents[key] = solid_extent(self.cameras, o, d, self.depth, hit.reshape(self.depth.shape),
-                                                  free, solid_reach, margin=margin)
+                o, d = self.cameras.rays()
+                hit = self.mask if self.mask is not None else np.isfinite(self.depth)
+                self._extents[key] = solid_extent(self.cameras, o, d, self.depth, hit,
+                                                  free_distance(self.depth, self.mask, None), solid_reach,
+                                                  margin=margin)
             solid = self._extents[key]
-        flat = lambda a, *shape: np.asarray(a, np.float32).reshape(-1, *shape)
-        return RaySet(flat(o, D), flat(d, D), flat(target, 3), flat(depth), flat(hit), flat(free),
-                      flat(self.cameras.footprint(), 2, D), flat(solid))
+        return TrainingRays(self, background, solid)
 
     def downscaled(self, factor: int) -> "Split":
         """The views box-filtered by ``factor`` (:func:`box_downscale`; 2D views along their rows): colour, alpha
@@ -153,7 +186,7 @@ class Split:
 
     def subset(self, index) -> "Split":
         pick = lambda a: None if a is None else a[index]
-        return Split(self.cameras.subset(index), self.color[index], self.alpha[index],
+        return Split(self.cameras.subset(index), self._color[index], self._alpha[index],
                      pick(self.depth), pick(self.mask), pick(self.linear))
 
 
@@ -183,10 +216,11 @@ class Dataset:
         """What figures and output folders call the data: its scene, else its file or folder's name."""
         return self.meta.get("scene") or (Path(self.meta["path"]).stem if self.meta.get("path") else "data")
 
-    @property
+    @cached_property
     def bound(self) -> float:
         """Half-extent that normalises positions: 1.1 x the object's radius, from the outline or the unit sphere
-        of datasets rendered here (2D / 3D), else the median camera distance minus ``near`` (foreign data)."""
+        of datasets rendered here (2D / 3D), else (foreign data) the box around the training views' visual hull
+        (:func:`hull_radius`) where their alpha tells empty pixels, else the median camera distance minus ``near``."""
         meta = self.meta
         if "polygon" in meta:
             r = float(np.linalg.norm(np.asarray(meta["polygon"]), axis=1).max())
@@ -195,6 +229,9 @@ class Dataset:
         else:
             cams = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in self.splits.values()])
             r = max(float(np.median(cams)) - self.near, 0.5)
+            train = self.splits.get("train")
+            if train is not None and train.has_alpha:
+                r = hull_radius(train, 1.1 * r)
         return 1.1 * r
 
     @property
@@ -216,6 +253,32 @@ def box_downscale(a: np.ndarray, rows: int, cols: int) -> np.ndarray:
     n, H, W = a.shape[:3]
     h, w = H // rows, W // cols
     return a[:, :h * rows, :w * cols].reshape(n, h, rows, w, cols, *a.shape[3:]).mean(axis=(2, 4)).astype(a.dtype)
+HULL_POINTS = 64
+"""Points per axis of the lattice whose carving gives a dataset's visual hull (:func:`hull_radius`)."""
+HULL_VIEWS = 24
+"""Training views, evenly spaced, that carve it."""
+
+
+def hull_radius(split: Split, r: float) -> float:
+    """The largest coordinate (in absolute value) of a point of ``[-r, r]^D`` that no view of ``split`` (at most
+    :data:`HULL_VIEWS` of them) knows to be empty: none sees it in a pixel whose neighbourhood has alpha 0
+    (:func:`free_distance`), and none whose border is all empty (the object inside its frame) leaves it out of
+    frame. The box around the views' visual hull, on a lattice of :data:`HULL_POINTS` per axis, one lattice step
+    wider; ``r`` when nothing is left (alpha that contradicts the poses)."""
+    views = np.unique(np.linspace(0, len(split) - 1, min(len(split), HULL_VIEWS)).round().astype(int))
+    sub = split.subset(views)
+    empty = np.isinf(free_distance(None, None, sub.alpha))
+    framed = empty[:, [0, -1]].all(axis=(1, 2)) & empty[:, :, [0, -1]].all(axis=(1, 2))     # [n]
+    axis = np.linspace(-r, r, HULL_POINTS)
+    pts = np.stack(np.meshgrid(*[axis] * sub.cameras.dim, indexing="ij"), -1).reshape(-1, sub.cameras.dim)
+    top = -1.0
+    for s in range(0, len(pts), 1 << 15):
+        p = pts[s:s + (1 << 15)]
+        row, col, inside = pixel_of(sub.cameras, p)                             # [n, m]
+        out = (inside & empty[np.arange(len(views))[:, None], row, col] | ~inside & framed[:, None]).any(0)
+        if not out.all():
+            top = max(top, float(np.abs(p[~out]).max()))
+    return min(top + 2 * r / (HULL_POINTS - 1), r) if top >= 0 else r
 
 
 def bounds_from_cameras(cams: list[Cameras], radius: float, margin: float = 0.1) -> tuple[float, float]:

@@ -20,7 +20,10 @@ agree up to rounding of weights within float precision of :math:`w_{min}`, and `
 sample of positive weight.
 
 **Primal** (:class:`VolumeIntegral`): one symbolic loop marches all rays together, one sample
-per ray per step, accumulating ``C, D, A``; nothing per sample is kept (weights only when asked).
+per ray per step, accumulating ``C, D, A``; nothing per sample is kept (weights only when asked). A ray's march
+ends after the last sample its sampler placed (:attr:`~.samplers._Sampler.count`; the slots after it are empty),
+and, when rendering without gradients, where its transmittance falls to ``stop`` (:math:`w_{min}`): each later
+sample's weight is at most that, so it would add no colour; depth and opacity then differ by at most ``stop``.
 
 **Adjoint** (radiative backpropagation, as Mitsuba's ``prb`` integrators): with output
 gradients :math:`\bar C, \bar D, \bar A` and optionally :math:`\bar w_i`, define the
@@ -89,6 +92,13 @@ def _keep(T: Float, delta: Float, w_min: float):
     return lambda sigma: T * (1.0 - dr.exp(-sigma * delta)) > w_min
 
 
+def marching(sampler, stop: float):
+    """The loop condition of a ray's march: samples left (:attr:`~.samplers._Sampler.count`), and, with ``stop``
+    > 0, transmittance above ``stop``."""
+    left = (lambda i: i < sampler.n) if sampler.count is None else (lambda i: i < sampler.count)
+    return (lambda i, T, *_: left(i) & (T > stop)) if stop > 0 else (lambda i, *_: left(i))
+
+
 def _dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
@@ -98,8 +108,8 @@ class VolumeIntegral(dr.CustomOp):
     background, want_weights, input_grads, w_min)`` -> ``(rgb, depth, opacity, weights)``."""
 
     def eval(self, params, origins, directions, near, far, source, sampler, background,
-             want_weights=False, input_grads=False, w_min=W_MIN):
-        self.args = (params, origins, directions, near, far, source, sampler, input_grads, w_min)
+             want_weights=False, input_grads=False, w_min=W_MIN, stop=0.0):
+        self.args = (params, origins, directions, near, far, source, sampler, input_grads, w_min, stop)
         n, N = dr.width(origins[0]), sampler.n
         ray = dr.arange(UInt32, n)
         near_r, far_r = per_sample(near, ray), per_sample(far, ray)
@@ -117,12 +127,12 @@ class VolumeIntegral(dr.CustomOp):
             return i + 1, T * (1.0 - alpha), [c + w * ci for c, ci in zip(C, rgb)], D + w * t
 
         state = (UInt32(0), dr.full(Float, 1.0, n), [dr.zeros(Float, n) for _ in range(3)], dr.zeros(Float, n))
-        _, T, C, D = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral")
+        _, T, C, D = dr.while_loop(state, marching(sampler, stop), body, label="volume_integral")
         self.out = ([c + T * b for c, b in zip(C, background)], D, 1.0 - T, weights)
         return self.out
 
     def backward(self):
-        params, origins, directions, near, far, source, sampler, input_grads, w_min = self.args
+        params, origins, directions, near, far, source, sampler, input_grads, w_min, stop = self.args
         dC, dD, dA, dW = self.grad_out()
         C, D, A, W = self.out
         n, N = dr.width(origins[0]), sampler.n
@@ -164,7 +174,7 @@ class VolumeIntegral(dr.CustomOp):
 
         zeros = [dr.zeros(Float, n) for _ in range(2 * len(origins))]
         state = (UInt32(0), dr.full(Float, 1.0, n), R, zeros[:len(origins)], zeros[len(origins):])
-        _, _, _, go, gd = dr.while_loop(state, lambda i, *_: i < N, body, label="volume_integral_adjoint")
+        _, _, _, go, gd = dr.while_loop(state, marching(sampler, stop), body, label="volume_integral_adjoint")
         self.set_grad_in("params", {k: dr.grad(v) for k, v in P.items()})
         if input_grads:
             self.set_grad_in("origins", go)

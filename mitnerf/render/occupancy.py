@@ -7,7 +7,9 @@ at a jittered point in it and keeps ``value = max(decay * value, measured)``; a 
 The sampler looks the centres of ``M = march_bins`` equal bins of ``[near, far]`` up in the grid. Of a
 ray's ``K`` occupied bins, every ``stride = ceil(K / N)``-th starts a group: one jittered sample in that
 bin stands for the group's ``stride * dt`` (the last group: the bins left). Unused slots get ``delta = 0``;
-the count stays ``N``, so the step can be frozen. Twin: :mod:`mitnerf.reference.render.occupancy`.
+the count stays ``N``, so the step can be frozen, and the integral stops at each ray's last used slot. Only the
+bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked up: the
+others are empty, so the samples are those of every bin. Twin: :mod:`mitnerf.reference.render.occupancy`.
 """
 
 from __future__ import annotations
@@ -63,6 +65,23 @@ class OccupancyGrid:
         n = cfg.resolution ** dim
         self.value = dr.zeros(Float, n)
         self.occupied = dr.full(Float, 1.0, n)      # 1 occupied / 0 empty (a Float: a PyTree leaf)
+        self.box = self._box()
+        """``[2 D]``: the lower and the upper corner of the box around the occupied cells (world units)."""
+
+    def _box(self) -> Float:
+        res, b = self.cfg.resolution, self.bound
+        idx = dr.arange(UInt32, res ** self.dim)
+        occ = self.occupied > 0.5
+        lo = [dr.min(dr.select(occ, Float((idx // res ** a) % res), res)) for a in range(self.dim)]
+        hi = [dr.max(dr.select(occ, Float((idx // res ** a) % res) + 1.0, 0.0)) for a in range(self.dim)]
+        box = Float(np.concatenate([np.asarray(v) for v in lo + hi])) * (2.0 * b / res) - b
+        dr.eval(box)
+        return box
+
+    @property
+    def lookup(self) -> tuple:
+        """What the sampler reads: ``(occupied, box)``."""
+        return self.occupied, self.box
 
     def cell_centres(self, jitter: Float | None = None) -> list:
         res = self.cfg.resolution
@@ -83,12 +102,14 @@ class OccupancyGrid:
             level = dr.minimum(dr.mean(self.value), self.cfg.threshold)
             self.occupied = dr.select(self.value > level, 1.0, 0.0)
             dr.eval(self.value, self.occupied)
+            self.box = self._box()
 
     def state(self) -> dict:
         return {"value": np.asarray(self.value), "occupied": np.asarray(self.occupied)}
 
     def load(self, state: dict) -> None:
         self.value, self.occupied = Float(state["value"]), Float(state["occupied"])
+        self.box = self._box()
 
 
 @dataclass
@@ -96,6 +117,7 @@ class OccupiedSampler:
     """``n`` samples per ray from the occupied bins (see the module docstring)."""
 
     occupied: Float
+    box: Float
     n: int
     bins: int
     bound: float
@@ -109,18 +131,33 @@ class OccupiedSampler:
         cell, inside = cell_index(x, self.bound, self.resolution)
         return inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
 
+    def _bins(self, origins: list, directions: list, near: Float, dt: Float) -> tuple[UInt32, UInt32]:
+        """Per ray, the first and one past the last bin that can be occupied: those whose centres lie in the
+        box (slab test), with a bin of margin; none where the ray misses it."""
+        t_in, t_out, D = Float(-np.inf), Float(np.inf), len(origins)
+        for a, (o, d) in enumerate(zip(origins, directions)):
+            lo, hi = dr.gather(Float, self.box, UInt32(a)), dr.gather(Float, self.box, UInt32(a + D))
+            inv = 1.0 / dr.select(dr.abs(d) > 1e-12, d, 1e-12)
+            t1, t2 = (lo - o) * inv, (hi - o) * inv
+            t_in = dr.maximum(t_in, dr.select(lo <= hi, dr.minimum(t1, t2), np.inf))        # lo > hi: no cell
+            t_out = dr.minimum(t_out, dr.maximum(t1, t2))
+        first = dr.clip(dr.floor((t_in - near) / dt) - 1.0, 0.0, self.bins)
+        last = dr.clip(dr.ceil((t_out - near) / dt) + 1.0, 0.0, self.bins)
+        return UInt32(first), UInt32(dr.select(t_in <= t_out, last, first))
+
     def build(self, origins: list, directions: list, near, far) -> Explicit:
-        """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals."""
+        """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals and a count."""
         n_rays = dr.width(origins[0])
         ray = dr.arange(UInt32, n_rays)
         near_r, far_r = per_sample(Float(near), ray), per_sample(Float(far), ray)
         dt = (far_r - near_r) * (1.0 / self.bins)
+        first, end = self._bins(origins, directions, near_r, dt)
 
         def count_body(k, count):
             occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
             return k + 1, count + dr.select(occ, 1, 0)
 
-        _, K = dr.while_loop((UInt32(0), dr.zeros(UInt32, n_rays)), lambda k, c: k < self.bins, count_body,
+        _, K = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, c: k < end, count_body,
                              label="occupancy_count")
         stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
         # unused slots: t = far, delta = 0 (no contribution)
@@ -137,6 +174,6 @@ class OccupiedSampler:
             dr.scatter(d_out, Float(group) * dt, ray * self.n + j, take)
             return k + 1, rank + dr.select(occ, 1, 0)
 
-        dr.while_loop((UInt32(0), dr.zeros(UInt32, n_rays)), lambda k, r: k < self.bins, place_body,
+        dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, r: k < end, place_body,
                       label="occupancy_place")
-        return Explicit(t_out, self.n, d_out)
+        return Explicit(t_out, self.n, d_out, (K + stride - 1) // stride)

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
+from ..data.rays import BACKGROUNDS
 from ..errors import ConfigError
 from ..settings import check, parse_color, setting
 from .integral import W_MIN, RenderOutput
@@ -29,9 +30,13 @@ class RenderConfig:
     """Importance samples per ray drawn from the coarse weights (0: no fine pass)."""
     separate_fine: bool = setting(True)
     """Give the fine pass its own field (NeRF); otherwise the coarse field is reused."""
-    background: tuple = setting((0.0, 0.0, 0.0), lo=0, hi=1, flag="--background", parse=parse_color,
-                                metavar="black|white|R,G,B")
-    """Colour behind the object (display space)."""
+    background: str | tuple | None = setting(None, lo=0, hi=1, flag="--background", parse=lambda text: parse_color(
+        text, ("white", "black", "random")), metavar="white|black|random|R,G,B", shown="the dataset's")
+    """Colour behind the object: white, black, random or r,g,b; unset: the dataset's own
+    (:attr:`~mitnerf.data.dataset.Dataset.background`: white for Blender-synthetic folders and our 3D objects, black
+    for 2D and tiny-NeRF files), which ``fit`` writes here. ``random`` draws a uniform colour per training ray, as
+    instant-ngp does, so the field cannot paint the background into empty space; renders and evaluation are then
+    over white."""
     method: str = setting("replay", choices=METHODS, flag="--method")
     """Volume integral: ``replay`` (the custom operation) or ``autodiff`` (plain AD, the check)."""
     occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
@@ -46,14 +51,23 @@ class RenderConfig:
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
 
     def __post_init__(self):
-        self.background = tuple(self.background)
+        if isinstance(self.background, list):
+            self.background = tuple(self.background)
         if isinstance(self.occupancy, dict):
             self.occupancy = OccupancyConfig(**self.occupancy)
 
     def validate(self) -> None:
         check(self)
-        if len(self.background) != 3:
-            raise ConfigError(f"--background needs 3 values (r, g, b), got {self.background!r}")
+        bg = self.background
+        if isinstance(bg, tuple) and len(bg) != 3:
+            raise ConfigError(f"--background needs 3 values (r, g, b), got {bg!r}")
+        if isinstance(bg, str) and bg not in ("random", *BACKGROUNDS):
+            raise ConfigError(f"--background must be white, black, random or r,g,b; got {bg[:40]!r}")
+
+    def render_background(self) -> tuple:
+        """The constant colour renders are composited over: ``random``'s is white, an unresolved one (None) black."""
+        bg = self.background
+        return BACKGROUNDS["white" if bg == "random" else bg or "black"] if not isinstance(bg, tuple) else bg
 
 
 def split_params(params: dict, prefix: str) -> dict:
@@ -114,21 +128,26 @@ class Model:
 
     def render(self, params: dict, origins: list, directions: list, near, far, seed: UInt32,
                training: bool, weights: bool = False, input_grads: bool = False,
-               occupied: Float | None = None) -> dict:
+               occupancy: tuple | None = None, background: list | None = None) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
-        ``'samples': (t, delta)`` of the final pass when ``weights`` is set."""
+        ``'samples': (t, delta)`` of the final pass when ``weights`` is set; ``occupancy``: the occupancy grid's
+        :attr:`~.occupancy.OccupancyGrid.lookup`; ``background``: 3 arrays ``[n]``, a colour per ray (training), else
+        the configuration's (:meth:`RenderConfig.render_background`). Renders without training end each ray's
+        march where its transmittance falls to ``min_color_weight`` (:mod:`.integral`)."""
         cfg = self.render_cfg
+        bg = tuple(background) if background is not None else cfg.render_background()
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
-        if occupied is None or not cfg.occupancy.enabled:
+        if occupancy is None or not cfg.occupancy.enabled:
             sampler = Stratified(cfg.n_coarse, seed, jitter=training)
         else:
-            sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins,
+            sampler = OccupiedSampler(*occupancy, cfg.n_coarse, cfg.occupancy.march_bins,
                                       self.fields["coarse"].bound, cfg.occupancy.resolution, seed,
                                       jitter=training).build(origins, directions, near, far)
-        kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight)
+        kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
+                  stop=0.0 if training else cfg.min_color_weight)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
-                                          near, far, sampler, cfg.background, weights=weights or cfg.n_fine > 0, **kw),
+                                          near, far, sampler, bg, weights=weights or cfg.n_fine > 0, **kw),
                   "fine": None}
         if cfg.n_fine > 0:
             t, delta = sampler.points(n, near, far)
@@ -136,7 +155,7 @@ class Model:
                                         training)
             g = self.final_field()
             result["fine"] = volume_render(self.fields[g], split_params(params, g), origins, directions, near, far,
-                                           sampler, cfg.background, weights=weights, **kw)
+                                           sampler, bg, weights=weights, **kw)
             if not weights:
                 result["coarse"] = replace(result["coarse"], weights=None)
         if weights:

@@ -19,6 +19,9 @@ from ..rng import uniform
 class _Sampler:
     """Contiguous intervals from ``t(ray, i, near, far)`` (``t_n = far``)."""
 
+    count = None
+    """Per ray, the samples that can contribute (``UInt32``; the others have ``delta = 0``); None: all ``n``."""
+
     def interval(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> tuple[Float, Float]:
         t = self.t(ray, i, near, far)
         return t, self.t(ray, i + 1, near, far) - t
@@ -50,11 +53,13 @@ class Stratified(_Sampler):
 @dataclass
 class Explicit(_Sampler):
     """Given sorted distances per ray, ``t_flat [n_rays * n]`` (ray-major), and either given
-    interval lengths ``delta_flat`` or contiguous ones (``t_{i+1} - t_i``, ``t_n = far``)."""
+    interval lengths ``delta_flat`` or contiguous ones (``t_{i+1} - t_i``, ``t_n = far``); ``count``: see
+    :attr:`_Sampler.count`."""
 
     t_flat: Float
     n: int
     delta_flat: Float | None = None
+    count: UInt32 | None = None
 
     def t(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> Float:
         inside = i < self.n

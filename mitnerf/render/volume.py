@@ -31,11 +31,12 @@ def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, 
 
 def volume_render(field, params: dict, origins: list, directions: list, near, far, sampler,
                   background=(0.0, 0.0, 0.0), *, method: str = "replay", weights: bool = False,
-                  input_grads: bool = False, w_min: float = W_MIN) -> RenderOutput:
+                  input_grads: bool = False, w_min: float = W_MIN, stop: float = 0.0) -> RenderOutput:
     """Render rays ``origins, directions`` (D arrays ``[n_rays]``; unit directions) through ``field``;
     ``near, far``: per-ray arrays or scalars. ``weights=True`` also returns the (differentiable) per-sample
     weights; ``input_grads=True`` makes origins and directions differentiable through a traceable field. Samples
-    of weight at most ``w_min`` add no colour (:mod:`.integral`; 0: every sample's colour counts)."""
+    of weight at most ``w_min`` add no colour (:mod:`.integral`; 0: every sample's colour counts); ``stop`` > 0 ends
+    a ray's march where its transmittance falls to it (renders without gradients)."""
     near, far = Float(near), Float(far)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -52,5 +53,5 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
             return out if weights else replace(out, weights=None)
         params, source, input_grads = {"sigma": sigma, "rgb": dr.ravel(Array3f(rgb))}, gathered_source, False
     out = dr.custom(VolumeIntegral, params, list(origins), list(directions), near, far, source, sampler,
-                    tuple(background), weights, input_grads, float(w_min))
+                    tuple(background), weights, input_grads, float(w_min), float(stop))
     return RenderOutput(*out)

@@ -89,7 +89,7 @@ def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> 
     """The family's recipe (its view dependence and losses included) with the candidate's settings, trained for
     :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on every validation view."""
     base = recipe_for(family, dataset.dim)
-    kw = dict(args, seed=cfg.seed, val_every=0, val_views=10 ** 6, background=dataset.background, progress=False)
+    kw = dict(args, seed=cfg.seed, val_every=0, val_views=10 ** 6, progress=False)
     if cfg.steps:
         return base.at_steps(cfg.steps, **kw)
     return base.override(**kw, time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)

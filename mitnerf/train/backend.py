@@ -7,9 +7,9 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from ..data.dataset import RaySet
+from ..data.rays import RaySet
 from ..geometry.mesh import LEVEL
-from ..rng import uniform_np
+from ..rng import batch_indices, uniform_np
 from .config import ModelConfig, TrainConfig
 
 
@@ -89,11 +89,19 @@ class Backend(ABC):
                  far: float):
         self.model_cfg, self.cfg = model_cfg, train_cfg
         self.dim, self.bound, self.near, self.far = dim, float(bound), float(near), float(far)
-        self.occupancy, self.n_pixels = None, 0
+        self.occupancy, self.rays, self.n_pixels = None, None, 0
 
-    @abstractmethod
-    def set_data(self, rays: RaySet) -> None:
-        """Hold the training rays (batches are drawn from them inside :meth:`step`)."""
+    def set_data(self, rays) -> None:
+        """Hold the training rays (:class:`~mitnerf.data.rays.TrainingRays`, or a :class:`RaySet` of every one):
+        :meth:`step` draws its batch from them (:meth:`batch`)."""
+        self.rays, self.n_pixels = rays, len(rays)
+
+    def batch(self, seed: int) -> RaySet:
+        """The rays of the step with batch seed ``seed`` (:func:`mitnerf.rng.batch_indices`); with an occupancy grid,
+        which gives each ray as many samples as it crosses occupied space, those known to be empty all along come
+        first, so that rays marched side by side (a SIMD packet) mostly end their march together."""
+        b = self.rays.batch(batch_indices(seed, self.cfg.batch_rays, self.n_pixels), seed)
+        return b if self.occupancy is None else b.batch(np.argsort(~np.isinf(b.free), kind="stable"))
 
     @abstractmethod
     def step(self, index: int, seed: int, lr: float):

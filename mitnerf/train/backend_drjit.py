@@ -10,11 +10,10 @@ from drjit.auto.ad import Float, UInt32
 from drjit.opt import Adam
 
 from .._drjit_compat import check_llvm, freeze, set_learning_rate
-from ..data.dataset import RaySet
 from ..fields import make_field
 from ..render.occupancy import OccupancyGrid
 from ..render.pipeline import Model, final
-from ..rng import hash_u32, uniform
+from ..rng import uniform
 from . import losses
 from .backend import SOLID_SALT, Backend, behind_depth, model_fields, training_loss
 
@@ -22,6 +21,10 @@ from .backend import SOLID_SALT, Backend, behind_depth, model_fields, training_l
 def columns(a: np.ndarray) -> list:
     """``[n, C]`` numpy -> C Dr.Jit arrays ``[n]``."""
     return [Float(np.ascontiguousarray(c, dtype=np.float32)) for c in np.asarray(a).T]
+
+
+STEP_INPUTS = ("origins", "directions", "target", "background", "depth", "hit", "free", "footprint", "solid")
+"""What a step reads of its batch (:class:`~mitnerf.data.rays.RaySet`)."""
 
 
 def build_model(cfg, dim: int, bound: float) -> Model:
@@ -36,12 +39,14 @@ class DrJitBackend(Backend):
         check_llvm()
         dr.set_thread_count(train_cfg.threads)
         self.model = build_model(model_cfg, dim, bound)
-        self.chunk = 65536 if self.model.fields["coarse"].traceable else 8192
+        self.chunk = 1 << 18 if self.model.fields["coarse"].traceable else 8192
         self.opt = Adam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2, epsilon=train_cfg.eps,
                         params=self.model.init_params(train_cfg.seed))
         occ = model_cfg.render.occupancy
         self.occupancy = OccupancyGrid(occ, dim, bound) if occ.enabled else None
-        self.data = None
+        self._inputs = None
+        """The batch, column after column (``STEP_INPUTS``), in one array written in place every step: a frozen
+        step given fresh arrays each time is recorded again and again while earlier steps are in flight."""
         self._frozen = self._new_step()
 
     @property
@@ -51,42 +56,38 @@ class DrJitBackend(Backend):
     def detached(self) -> dict:
         return {k: dr.detach(v) for k, v in self.params.items()}
 
-    def set_data(self, rays: RaySet) -> None:
-        # {name: columns}: a PyTree, so frozen steps see it as input
-        self.data = {k: columns(getattr(rays, k).reshape(len(rays), -1))
-                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint", "solid")}
-        self.n_pixels = len(rays)
-
     def _new_step(self):
         # no reference to the backend in the closure: the cyclic GC could free it while a frozen call records
         model, cfg, n_final = self.model, self.cfg, self.n_final
         near, far, B = self.near, self.far, cfg.batch_rays
         use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
+        widths = [D, D, 3, 3, 1, 1, 1, 2 * D, 1]                             # of STEP_INPUTS
 
-        def step(opt, data, n_pixels, seed, lr, occupied):
+        def step(opt, inputs, seed, lr, occupancy):
             set_learning_rate(opt, lr)
-            idx = hash_u32(hash_u32(seed) ^ dr.arange(UInt32, B)) % n_pixels
-            g = lambda cols: [dr.gather(Float, c, idx) for c in cols]
+            rows, data = dr.arange(UInt32, B), {}
+            for k, start, width in zip(STEP_INPUTS, np.cumsum([0, *widths]).tolist(), widths):  # the batch's columns
+                data[k] = [dr.gather(Float, inputs, rows + (start + c) * B) for c in range(width)]
             params = {k: opt[k] for k in opt.keys()}
-            o = g(data["origins"])
-            d = d_centre = g(data["directions"])
+            o = data["origins"]
+            d = d_centre = data["directions"]
             if jitter:                  # a ray through a random point of the pixel (twin: backend.jitter_np)
                 a, b = (uniform(seed ^ 0x68E31DA4, dr.arange(UInt32, B), UInt32(k)) - 0.5 for k in (0, 1))
-                fp = g(data["footprint"])
+                fp = data["footprint"]
                 d = [d[i] + a * fp[i] + b * fp[D + i] for i in range(D)]
                 inv = dr.rsqrt(sum(di * di for di in d))
                 d = [di * inv for di in d]
             outs = model.render(params, o, d, near, far, seed, training=True, weights=use_weights,
-                                occupied=occupied)
-            depth, behind = g(data["depth"])[0], None
+                                occupancy=occupancy, background=data["background"])
+            depth, behind = data["depth"][0], None
             if cfg.solid_weight > 0:            # points within the solid extent behind pixel-centre depths
-                extent = g(data["solid"])[0]
+                extent = data["solid"][0]
                 u = uniform(seed ^ SOLID_SALT, dr.arange(UInt32, B), UInt32(0))
                 t = behind_depth(u, depth, extent, cfg.solid_start)
                 behind = (model.density(params, [oi + t * di for oi, di in zip(o, d_centre)]),
                           dr.select(extent > 0, 1.0, 0.0))
-            loss = training_loss(cfg, n_final, losses, outs, g(data["target"]), depth, g(data["hit"])[0],
-                                 g(data["free"])[0], behind, model.regularizer(params, seed))
+            loss = training_loss(cfg, n_final, losses, outs, data["target"], depth, data["hit"][0],
+                                 data["free"][0], behind, model.regularizer(params, seed))
             dr.backward(loss)
             bad = [dr.count(~dr.isfinite(dr.grad(params[k]).array if dr.is_tensor_v(params[k])
                                          else dr.grad(params[k]))) for k in opt.keys()]
@@ -101,9 +102,15 @@ class DrJitBackend(Backend):
             self.opt.update(new)    # a resized parameter also resets its Adam state
             self._frozen = self._new_step()         # new shapes: a new recording (see _drjit_compat.freeze)
         self.update_occupancy(index, seed)
-        occ = self.occupancy
-        return self._frozen(self.opt, self.data, dr.opaque(UInt32, self.n_pixels), dr.opaque(UInt32, seed),
-                            dr.opaque(Float, lr), occ.occupied if occ is not None else None)
+        occ, b = self.occupancy, self.batch(seed)
+        batch = np.concatenate([getattr(b, k).reshape(len(b), -1).T.ravel() for k in STEP_INPUTS])
+        if self._inputs is None or dr.width(self._inputs) != len(batch):
+            self._inputs = dr.zeros(Float, len(batch))
+        dr.eval(self._inputs)
+        dr.sync_thread()                # the steps in flight have read the last batch
+        self._inputs.numpy()[:] = batch
+        return self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
+                            occ.lookup if occ is not None else None)
 
     def read(self, handle) -> tuple[float, str | None]:
         loss, bad = handle
@@ -120,9 +127,9 @@ class DrJitBackend(Backend):
 
     def render_chunk(self, origins: np.ndarray, directions: np.ndarray) -> dict:
         with dr.suspend_grad():
-            occupied = self.occupancy.occupied if self.occupancy is not None else None
+            occ = self.occupancy.lookup if self.occupancy is not None else None
             out = final(self.model.render(self.detached(), columns(origins), columns(directions), self.near,
-                                          self.far, UInt32(0), training=False, occupied=occupied))
+                                          self.far, UInt32(0), training=False, occupancy=occ))
             dr.eval(out.rgb, out.depth, out.opacity)
             return {"rgb": np.stack([np.asarray(c) for c in out.rgb], 1), "depth": np.asarray(out.depth),
                     "opacity": np.asarray(out.opacity)}

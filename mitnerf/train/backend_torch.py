@@ -5,12 +5,11 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ..data.dataset import RaySet
 from ..reference.fields import make_field
 from ..reference.render.occupancy import OccupancyGrid
 from ..reference.render.pipeline import Model
 from ..reference.train import losses
-from ..rng import batch_indices, uniform_np
+from ..rng import uniform_np
 from .backend import SOLID_SALT, Backend, behind_depth, jitter_np, model_fields, training_loss
 from .backend_drjit import build_model
 
@@ -41,24 +40,18 @@ class TorchBackend(Backend):
         if old is not None:
             self.opt.state.update({p: old.state[p] for p in self.model.parameters() if p in old.state})
 
-    def set_data(self, rays: RaySet) -> None:
-        self.data = {k: torch.from_numpy(np.ascontiguousarray(getattr(rays, k)))
-                     for k in ("origins", "directions", "target", "depth", "hit", "free", "footprint", "solid")}
-        self.n_pixels = len(rays)
-
     def step(self, index: int, seed: int, lr: float):
         if self.model.schedule(index):
             self._rebuild_optimizer()
         self.update_occupancy(index, seed)
         for group in self.opt.param_groups:
             group["lr"] = lr
-        b = {k: v[torch.from_numpy(batch_indices(seed, self.cfg.batch_rays, self.n_pixels))]
-             for k, v in self.data.items()}
+        b = {k: torch.from_numpy(v) for k, v in vars(self.batch(seed)).items()}
         d = b["directions"]
         if self.model_cfg.render.pixel_jitter:
             d = torch.from_numpy(jitter_np(seed, d.numpy(), b["footprint"].numpy()).astype(np.float32))
         outs = self.model.render(b["origins"], d, self.near, self.far, seed, training=True,
-                                 weights=self.cfg.needs_weights, occupancy=self.occupancy)
+                                 weights=self.cfg.needs_weights, occupancy=self.occupancy, background=b["background"])
         behind = None
         if self.cfg.solid_weight > 0:           # points within the solid extent behind pixel-centre depths
             n = len(b["depth"])

@@ -95,6 +95,9 @@ class TrainConfig:
     learning curve's points."""
     val_views: int = setting(4, lo=1, hi=10 ** 6)
     """Validation views rendered each time."""
+    test_views: int = setting(0, lo=0, hi=10 ** 6, flag="--test-views", shown="all")
+    """Test views the run is evaluated on, evenly spaced (a quick check, said wherever its figure is); 0: all, the
+    protocol (:func:`~mitnerf.train.evaluate.test_views`)."""
     keep_best: bool = setting(True)
     """End with the weights of the best validation, not the last step (and say so), when it beats the last
     validation by ``keep_best_margin``."""

@@ -7,20 +7,27 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import resource
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from ..data.dataset import Dataset, Split
 from ..geometry import field_chamfer, mesh_from_ply
+from ..data.rays import background_name, view_rays
 from ..geometry.outline import outline_iou
-from .metrics import depth_error, psnr, ssim
+from .metrics import depth_error, ssim
 
 EMPTY_OPACITY = 0.1
 """Mean opacity on the object's pixels below which a field counts as empty."""
 CONSTANT_STD = 1e-3
 """Standard deviation of the renders below which they count as constant."""
+CHUNK_RAYS = 1 << 19
+"""Rays rendered (whole views) before they are measured."""
+KEPT_PIXELS = 1 << 22
+"""Pixels of test renders kept for the figures (all views of a small split, evenly spaced ones of a large one)."""
 
 
 @dataclass
@@ -47,12 +54,24 @@ class RunRecord:
     """Optimisation steps taken."""
     render_time: float = math.nan
     """Seconds to render one test view."""
+    eval_time: float = math.nan
+    """Seconds the evaluation took: rendering, metrics, geometry."""
+    views: int = 0
+    """Test views measured: all of the split's, or ``--test-views`` evenly spaced ones (:func:`test_views`)."""
+    split_views: int = 0
+    """Views in the test split."""
+    peak_memory: float = math.nan
+    """GiB: the process's peak resident memory when the evaluation ended (loading, training and evaluating)."""
     params: int = 0
     """Trainable parameters of the model."""
     recipe: str = ""
     """The recipe's name (``+`` when settings were overridden)."""
+    background: str = ""
+    """What the test renders and their targets are composited over (``white``, ``black``, ``r,g,b``; a
+    ``random`` training background evaluates over white)."""
     renders: dict | None = field(default=None, repr=False)
-    """The test renders (``rgb``, ``depth``, ``opacity`` as ``[n, H, W, ...]``); not in :meth:`row`."""
+    """Test renders kept for the figures (``rgb``, ``depth``, ``opacity`` as ``[n, H, W, ...]``, ``views``: their
+    indices in the split); not in :meth:`row`."""
 
     def row(self) -> dict:
         """A flat dict for CSV files and tables (without the renders)."""
@@ -64,32 +83,84 @@ class RunRecord:
                         (("SSIM", "ssim", ".3f"), ("IoU", "iou", ".3f"), ("Chamfer", "chamfer", ".4f"))
                         if math.isfinite(getattr(self, key)))
         status = "" if self.status == "ok" else f" [{self.status}: {self.reason}]"
-        return f"test PSNR {self.psnr:.2f} dB{extra}, train {self.train_time:.1f} s, recipe {self.recipe}{status}"
+        some = f" on {self.views} of {self.split_views} views" if self.views < self.split_views else ""
+        return (f"test PSNR {self.psnr:.2f} dB{extra}{some}, train {self.train_time:.1f} s, recipe {self.recipe}"
+                f"{status}")
+
+
+class Tally:
+    """Running sums over rendered views: what :func:`classify` and the image metrics need, so a split is measured
+    a few views at a time."""
+
+    def __init__(self):
+        self.finite, self.n, self.sse, self.ssims = True, 0, 0.0, []
+        self.obj = self.obj_opacity = self.background = 0.0
+        self.sums = np.zeros(4)          # rgb and target: sum, sum of squares
+        self.depth_err = self.depth_n = 0.0
+
+    def add(self, rgb: np.ndarray, opacity: np.ndarray, target: np.ndarray, alpha: np.ndarray,
+            metrics: bool = True) -> "Tally":
+        """Views ``rgb [k, H, W, 3]``, ``opacity [k, H, W]`` against ``target`` and the true coverage ``alpha``;
+        ``metrics``: also the squared error and SSIM of each view."""
+        self.finite &= bool(np.isfinite(rgb).all() and np.isfinite(opacity).all())
+        obj = alpha > 0.5
+        self.obj, self.background = self.obj + obj.sum(), self.background + (~obj).sum()
+        self.obj_opacity += float(opacity[obj].sum(dtype=np.float64))
+        for k, a in enumerate((rgb, target)):
+            self.sums[2 * k:2 * k + 2] += (a.sum(dtype=np.float64), np.square(a, dtype=np.float64).sum())
+        self.n += rgb.size
+        if metrics and self.finite:
+            self.sse += float(np.square(np.clip(rgb, 0, 1) - target, dtype=np.float64).sum())
+            self.ssims += [ssim(p[None], t[None]) for p, t in zip(rgb, target)]
+        return self
+
+    def add_depth(self, depth: np.ndarray, opacity: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> None:
+        """The termination depth's absolute error on the pixels in ``mask`` (see :func:`depth_error`)."""
+        if mask.any():
+            self.depth_err += depth_error(depth, opacity, truth, mask) * mask.sum()
+            self.depth_n += mask.sum()
+
+    def std(self, k: int) -> float:
+        mean = self.sums[2 * k] / max(self.n, 1)
+        return float(np.sqrt(max(self.sums[2 * k + 1] / max(self.n, 1) - mean * mean, 0.0)))
+
+    def status(self) -> tuple[str, str]:
+        """The status of the renders so far (the module docstring)."""
+        if not self.finite:
+            return "nan", "the renders contain NaN or infinity"
+        if self.obj and self.background:
+            mean = self.obj_opacity / self.obj
+            if mean < EMPTY_OPACITY:
+                return "collapsed", f"empty: mean opacity on the object {mean:.3f} < {EMPTY_OPACITY}"
+        spread = self.std(0)
+        if spread < CONSTANT_STD and self.std(1) > 1e-2:
+            return "collapsed", f"constant: render standard deviation {spread:.1e} < {CONSTANT_STD:g}"
+        return "ok", ""
+
+    @property
+    def psnr(self) -> float:
+        mse = self.sse / max(self.n, 1)
+        return float("inf") if mse == 0 else float(-10.0 * np.log10(mse))
 
 
 def classify(rgb: np.ndarray, opacity: np.ndarray, split: Split, background) -> tuple[str, str]:
     """The status of renders of ``split`` (``rgb [n, H, W, 3]``, ``opacity [n, H, W]``)."""
-    if not (np.isfinite(rgb).all() and np.isfinite(opacity).all()):
-        return "nan", "the renders contain NaN or infinity"
-    obj = split.alpha > 0.5
-    if obj.any() and (~obj).any():
-        mean = float(opacity[obj].mean())
-        if mean < EMPTY_OPACITY:
-            return "collapsed", f"empty: mean opacity on the object {mean:.3f} < {EMPTY_OPACITY}"
-    spread = float(np.std(rgb))
-    if spread < CONSTANT_STD and float(np.std(split.target(background))) > 1e-2:
-        return "collapsed", f"constant: render standard deviation {spread:.1e} < {CONSTANT_STD:g}"
-    return "ok", ""
+    return Tally().add(rgb, opacity, split.target(background), split.alpha, metrics=False).status()
 
 
 def render_split(backend, split: Split) -> tuple[dict, float]:
     """Renders of ``split``'s views ``[n, H, W, ...]`` (``eval_spp`` rays per pixel), and the seconds taken."""
-    o, d = split.cameras.rays()
-    D, t0 = o.shape[-1], time.perf_counter()
-    out = backend.render(o.reshape(-1, D), d.reshape(-1, D), footprint=split.cameras.footprint().reshape(-1, 2, D),
-                         spp=backend.model_cfg.render.eval_spp)
+    o, d = view_rays(split.cameras)
+    spp, D, t0 = backend.model_cfg.render.eval_spp, o.shape[-1], time.perf_counter()
+    fp = split.cameras.footprint().reshape(-1, 2, D) if spp > 1 else None
+    out = backend.render(o.reshape(-1, D), d.reshape(-1, D), footprint=fp, spp=spp)
     elapsed = time.perf_counter() - t0
     return {k: v.reshape(*o.shape[:-1], *v.shape[1:]) for k, v in out.items()}, elapsed
+
+
+def test_views(n: int, views: int = 0) -> np.ndarray:
+    """The indices of ``views`` evenly spaced views of ``n`` (all of them for 0 or ``views >= n``)."""
+    return np.arange(n) if not 0 < views < n else np.unique(np.linspace(0, n - 1, views).round().astype(int))
 
 
 def geometry(backend, dataset: Dataset, bound: float, resolution: int | None = None) -> dict:
@@ -106,26 +177,50 @@ def geometry(backend, dataset: Dataset, bound: float, resolution: int | None = N
 
 
 def evaluate(backend, dataset: Dataset, split: str = "test", *, geometry_metrics: bool = True,
-             record: RunRecord | None = None) -> RunRecord:
-    """Render ``split`` and measure it; fills (and returns) ``record``."""
-    rec = record or RunRecord()
+             record: RunRecord | None = None, views: int = 0, progress: bool = False) -> RunRecord:
+    """Render ``split`` (``views`` evenly spaced views of it, :func:`test_views`; 0: all) a few views at a time and
+    measure it; fills (and returns) ``record``. The renders of at most :data:`KEPT_PIXELS` pixels' worth of views,
+    evenly spaced, are kept for the figures (``renders['views']``: their indices in the split)."""
+    rec, t0 = record or RunRecord(), time.perf_counter()
     s = dataset[split]
-    bg = tuple(backend.model_cfg.render.background)
-    r, elapsed = render_split(backend, s)
-    target = s.target(bg)
-    rec.renders = r
-    rec.render_time = elapsed / max(len(s), 1)
-    rec.params = backend.n_params()
-    status, reason = classify(r["rgb"], r["opacity"], s, bg)
+    bg = backend.model_cfg.render.render_background()
+    rec.background, rec.params = background_name(bg), backend.n_params()
+    index = test_views(len(s), views)
+    rec.views, rec.split_views = len(index), len(s)
+    pixels = s.cameras.height * s.cameras.width
+    keep = set(index[test_views(len(index), max(1, KEPT_PIXELS // pixels))].tolist())
+    kept: dict = {"rgb": [], "depth": [], "opacity": [], "views": []}
+    tally, rendering = Tally(), 0.0
+    step = max(1, CHUNK_RAYS // pixels)
+    bar = tqdm(total=len(index), desc=f"{split} views", unit="view", disable=not progress, leave=False)
+    for start in range(0, len(index), step):
+        part = index[start:start + step]
+        sub = s.subset(part)
+        r, elapsed = render_split(backend, sub)
+        rendering += elapsed
+        tally.add(r["rgb"], r["opacity"], sub.target(bg), sub.alpha)
+        if sub.depth is not None:
+            tally.add_depth(r["depth"], r["opacity"], sub.depth, sub.mask if sub.mask is not None
+                            else np.isfinite(sub.depth))
+        for k, v in enumerate(part.tolist()):
+            if v in keep:
+                for key in ("rgb", "depth", "opacity"):
+                    kept[key].append(r[key][k])
+                kept["views"].append(v)
+        bar.update(len(part))
+        bar.set_postfix_str(f"{bar.n * pixels / max(rendering, 1e-9) / 1e3:.0f} k rays/s", refresh=False)
+    bar.close()
+    rec.renders = {k: np.stack(v) for k, v in kept.items()}
+    rec.render_time = rendering / max(len(index), 1)
+    status, reason = tally.status()
     if rec.status == "ok":
         rec.status, rec.reason = status, reason
-    if status == "nan":
-        return rec
-    rec.psnr, rec.ssim = psnr(r["rgb"], target), ssim(r["rgb"], target)
-    if s.depth is not None:
-        mask = s.mask if s.mask is not None else np.isfinite(s.depth)
-        rec.depth_error = depth_error(r["depth"], r["opacity"], s.depth, mask)
-    if geometry_metrics:
-        for k, v in geometry(backend, dataset, backend.bound).items():
-            setattr(rec, k, v)
+    if status != "nan":
+        rec.psnr, rec.ssim = tally.psnr, float(np.mean(tally.ssims))
+        rec.depth_error = tally.depth_err / tally.depth_n if tally.depth_n else math.nan
+        if geometry_metrics:
+            for k, v in geometry(backend, dataset, backend.bound).items():
+                setattr(rec, k, v)
+    rec.eval_time = time.perf_counter() - t0
+    rec.peak_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20      # KiB on Linux
     return rec

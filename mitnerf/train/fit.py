@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..data.dataset import Dataset
+from ..data.rays import BACKGROUNDS, background_name
 from ..errors import ConfigError, DataError
 from ..fields import CONDITIONED
 from .backend import Backend
@@ -42,8 +43,11 @@ class Run:
         return self.backend.bound
 
     def record(self, dataset: Dataset, split: str = "test", **kw) -> RunRecord:
-        """Evaluate on ``split`` (see :func:`~mitnerf.train.evaluate.evaluate`)."""
+        """Evaluate on ``split`` (see :func:`~mitnerf.train.evaluate.evaluate`), the test split on the recipe's
+        ``test_views``."""
         rec = RunRecord(train_time=self.state.train_time, steps=self.state.step, recipe=self.recipe.name)
+        t = self.recipe.train
+        kw = {"views": t.test_views if split == "test" else 0, "progress": t.progress, **kw}
         return evaluate(self.backend, dataset, split, record=rec, **kw)
 
 
@@ -56,11 +60,23 @@ def check_dataset(dataset: Dataset, need_test: bool = True) -> None:
                         "add a test split (e.g. `mitnerf dataset --test 20`)")
 
 
+def resolve_background(recipe: Recipe, dataset: Dataset) -> str:
+    """Write the background into ``recipe`` where it has none (the dataset's, :attr:`Dataset.background`, by its
+    name where it has one); returns a line that says which and why."""
+    r, typed = recipe.model.render, recipe.model.render.background is not None
+    if not typed:
+        own = tuple(float(v) for v in dataset.background)
+        r.background = next((k for k, v in BACKGROUNDS.items() if v == own), own)
+    name = background_name(r.background)
+    return (f"background {name}" + (" for training, white for evaluation" if name == "random" else "")
+            + (" (--background)" if typed else " (the dataset's; --background white|black|random to change)"))
+
+
 def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dict | None = None,
         progress: bool | None = None) -> Run:
     """Train ``recipe`` on ``dataset['train']`` with engine ``backend`` (see the module docstring);
     ``resume``: the state :func:`~mitnerf.train.checkpoint.load_checkpoint` returned, to continue it."""
-    recipe.validate()
+    recipe = recipe.sized(dataset).validate()
     if recipe.model.field in CONDITIONED:
         raise ConfigError(f"a {recipe.model.field} field renders from input views and trains across scenes; "
                           "run `mitnerf experiment pixelnerf`, or pick another --field")
@@ -71,9 +87,11 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     cfg = recipe.train
     if progress is not None:
         cfg.progress = progress
-    bg = recipe.model.render.background = tuple(recipe.model.render.background)
+    resolve_background(recipe, dataset)
+    r = recipe.model.render
+    bg = r.render_background()
     be = make_backend(backend, recipe.model, cfg, dataset.dim, dataset.bound, dataset.near, dataset.far)
-    be.set_data(dataset["train"].rays(bg, **cfg.ray_args()))
+    be.set_data(dataset["train"].rays("random" if r.background == "random" else bg, **cfg.ray_args()))
     run = Run(be, recipe, dict(dataset.meta))
     if resume is not None:
         be.set_weights(resume["weights"])

@@ -7,12 +7,41 @@ import copy
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import ConfigError
 from ..fields import FIELDS
 from ..render.occupancy import OccupancyConfig
 from ..render.pipeline import RenderConfig
 from ..settings import field_named
 from .config import ModelConfig, TrainConfig
+
+
+SIZES = {"grid": ("resolution", "initial_resolution"), "hashlinear": ("resolutions",),
+         "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
+"""The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
+
+
+@dataclass
+class Sizing:
+    """How a recipe takes its sizes from the data (:meth:`Recipe.sized`): its finest lattice as fine as the training
+    images' pixels are at the scene, within a limit, reached coarse to fine; the sample spacing from the lattice's."""
+
+    vertices_per_pixel: float = 1.0
+    """Finest lattice spacing per pixel footprint at the scene's centre (the training cameras' median distance to
+    the origin over the focal length): 1, one vertex per pixel."""
+    max_resolution: int = 193
+    """Vertices per axis of the finest lattice at most: a dense grid's memory and the work of each step grow with
+    its cube."""
+    doublings: int = 2
+    """Coarse to fine: the lattice starts this many doublings coarser (the grid's ``initial_resolution``; the linearly
+    decoded hash grid's levels, one per doubling)."""
+    samples_per_vertex: float = 2.0
+    """Occupancy bins along a ray (the finest sample spacing) per lattice spacing."""
+    samples: int = 64
+    """Samples per ray (the occupancy sampler's slots)."""
+    fixed: tuple = ()
+    """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
 
 
 @dataclass
@@ -31,19 +60,56 @@ class Recipe:
     """How it is made, and why."""
     purpose: str = ""
     """What it is for, in a few words (``mitnerf recipes`` leads with it)."""
+    sizing: Sizing | None = None
+    """Where set, the field's lattice and the samples per ray come from the data (:meth:`sized`); None: as written."""
 
     def copy(self) -> "Recipe":
         return copy.deepcopy(self)
 
     def to_dict(self) -> dict:
         return {"name": self.name, "dim": self.dim, "model": self.model.to_dict(),
-                "train": dataclasses.asdict(self.train), "about": self.about, "purpose": self.purpose}
+                "train": dataclasses.asdict(self.train), "about": self.about, "purpose": self.purpose,
+                "sizing": None if self.sizing is None else dataclasses.asdict(self.sizing)}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Recipe":
         train = {k: v for k, v in d["train"].items() if k in TrainConfig.__dataclass_fields__}
+        sizing = d.get("sizing")
         return cls(d["name"], int(d["dim"]), ModelConfig.from_dict(d["model"]), TrainConfig(**train),
-                   d.get("about", ""), d.get("purpose", ""))
+                   d.get("about", ""), d.get("purpose", ""), None if sizing is None else Sizing(**{**sizing, "fixed": tuple(sizing["fixed"])}))
+
+    def sized(self, dataset) -> "Recipe":
+        """A copy with the sizes :attr:`sizing` takes from ``dataset`` (``self`` where it has none): the finest
+        lattice ``R`` (vertices per axis) spans the bound with one vertex per :attr:`Sizing.vertices_per_pixel` pixel
+        footprints, at most :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to
+        fine from ``c + 1``); occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
+        an occupancy cell per two lattice spacings (up to 128 per axis). A size set on the recipe stays."""
+        if self.sizing is None:
+            return self
+        out, s = self.copy(), self.sizing
+        out.sizing, args, r = None, out.model.field_args, out.model.render
+        d = s.doublings
+        if "resolution" in s.fixed or "resolutions" in s.fixed:
+            top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
+        else:
+            cams = dataset["train"].cameras
+            footprint = float(np.median(np.linalg.norm(cams.origins, axis=1))) / cams.focal
+            top = min(2 * dataset.bound / footprint * s.vertices_per_pixel + 1, s.max_resolution)
+        c = max(2, round((top - 1) / 2 ** d))
+        R = c * 2 ** d + 1
+        sizes = {"resolution": R, "initial_resolution": c + 1, "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)),
+                 "n_coarse": s.samples, "occupancy.resolution": min(128, (R - 1) // 2),
+                 "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
+                                                     / (2 * dataset.bound)))}
+        for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
+            if key not in s.fixed:
+                if key.startswith("occupancy."):
+                    setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
+                elif key == "n_coarse":
+                    r.n_coarse = sizes[key]
+                else:
+                    args[key] = sizes[key]
+        return out
 
     def override(self, *, nulls: bool = False, **settings) -> "Recipe":
         """A copy with some settings replaced: a :class:`TrainConfig` or :class:`RenderConfig` field,
@@ -54,7 +120,7 @@ class Recipe:
             if key in TrainConfig.__dataclass_fields__:
                 setattr(out.train, key, value)
             elif key in RenderConfig.__dataclass_fields__ and key != "occupancy":
-                setattr(out.model.render, key, tuple(value) if key == "background" else value)
+                setattr(out.model.render, key, tuple(value) if isinstance(value, list) else value)
             elif key.startswith("occupancy."):
                 sub = key.split(".", 1)[1]
                 if sub not in OccupancyConfig.__dataclass_fields__:
@@ -62,6 +128,8 @@ class Recipe:
                 setattr(out.model.render.occupancy, sub, value)
             else:
                 out.model.field_args[key] = value
+            if out.sizing is not None and any(key in keys for keys in SIZES.values()):
+                out.sizing = dataclasses.replace(out.sizing, fixed=(*out.sizing.fixed, key))
         return out._marked(self)
 
     def at_steps(self, steps: int, **settings) -> "Recipe":
@@ -105,12 +173,12 @@ class Recipe:
         return getattr(self.model.field_config(self.dim), key)
 
     def essence(self) -> dict:
-        """The settings that change what is trained (not progress bars or thread counts); field settings
+        """The settings that change what is trained (not progress bars, thread counts or test views); field settings
         with their defaults filled in, so a setting written at its default value changes nothing."""
         d = self.to_dict()
         full = dataclasses.asdict(self.model.field_config(self.dim))
         d["model"]["field_args"] = {k: v for k, v in full.items() if k != "dim"}
-        d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads")}
+        d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads", "test_views")}
         return {k: v for k, v in d.items() if k not in ("name", "about", "purpose")}
 
     def validate(self) -> "Recipe":
@@ -124,14 +192,18 @@ class Recipe:
         args = ", ".join(f"{k}={v}" for k, v in args.items())
         r, t = self.model.render, self.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
-        occ = ", occupancy grid" if r.occupancy.enabled else ""
+        occ = (f", occupancy grid {r.occupancy.resolution}^{self.dim} of {r.occupancy.march_bins} bins a ray"
+               if r.occupancy.enabled else "")
         fine = f" + {r.n_fine} fine" if r.n_fine else ""
         reach = {"solid_weight": f" (reach {t.solid_thickness:g})"}
         losses = "".join(f", {k.rsplit('_', 1)[0].replace('_', ' ')} {getattr(t, k):g}{reach.get(k, '')}"
                          for k in ("depth_weight", "free_space_weight", "solid_weight", "distortion_weight",
                                    "opacity_weight")
                          if getattr(t, k))
-        return (f"{self.name}: {self.model.field} ({args}); {r.n_coarse}{fine} samples{occ}; "
+        s = self.sizing
+        sized = (f" (sizes from the data: {s.vertices_per_pixel:g} vertex per pixel, up to {s.max_resolution})"
+                 if s is not None else "")
+        return (f"{self.name}: {self.model.field} ({args}){sized}; {r.n_coarse}{fine} samples{occ}; "
                 f"{budget}, batch {t.batch_rays}, lr {t.lr:g} -> {t.lr_final:g}{losses}")
 
 
@@ -148,9 +220,9 @@ PURPOSE = {
 }
 
 
-def _r(name, dim, field, args, render, train, about) -> Recipe:
+def _r(name, dim, field, args, render, train, about, sizing=None) -> Recipe:
     return Recipe(name, dim, ModelConfig(field, args, RenderConfig(**render)), TrainConfig(**train), about,
-                  PURPOSE[name])
+                  PURPOSE[name], sizing)
 
 
 _BUDGET = dict(iters=1_000_000)          # time-budgeted recipes: the clock decides, not the step count
@@ -186,21 +258,26 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
     _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-4,
                                   view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
-       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=2048, distortion_weight=1e-3, opacity_weight=1e-3,
+       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
-       "dense voxel grid, view-dependent colour, coarse to fine 33 -> 129, occupancy grid, a high learning rate "
-       "(a budget of seconds buys few steps), a colour TV of 3e-4 against 2D's 1e-2 (25 views of 100 x 100 "
-       "carry the texture and the highlights: 2D's weight blurs both away), distortion + opacity losses, free "
-       "space and solid matter where the data has depth, 60 s: the default for 3D datasets"),
-    _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17,
-                                              view_levels=1, initial_levels=1, add_level_at=(200, 600),
+       "dense voxel grid, view-dependent colour, its lattice from the data (1.5 vertices per pixel footprint at the "
+       "scene, at most 161^3: the grid's training state grows with its cube) reached coarse to fine from a quarter "
+       "of it at steps 200 and 600, an occupancy sample per lattice spacing, batches of 8192 rays, a high learning "
+       "rate (a budget of seconds buys few steps), a colour TV of 3e-4 against 2D's 1e-2 (few views of 100 x 100 "
+       "carry texture and highlights: 2D's weight blurs both away), distortion + opacity losses, free space and "
+       "solid matter where the data has depth or alpha, 60 s: the default for 3D datasets",
+       Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0)),
+    _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
+                                              view_levels=1, initial_levels=2, add_level_at=(300, 700),
                                               tv_color_weight=3e-4),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
-       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=2048, distortion_weight=1e-3, opacity_weight=1e-3,
+       dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
-       "hash grid decoded linearly: levels 33 and 65 dense, 129 hashed into 2^17 entries, joining at steps 200 and "
-       "600 (grid-3d's coarse to fine); grid-3d's losses, occupancy grid and learning rate, 60 s; 2.1 M "
-       "parameters against grid-3d's 27.9 M at 129^3"),
+       "hash grid decoded linearly: four levels, one per doubling up to the data's lattice (1.5 vertices per pixel "
+       "footprint, at most 385^3), the two coarsest dense, the finer ones hashed into 2^19 entries, joining at steps "
+       "300 and 700; grid-3d's losses, occupancy grid, batch and learning rate, 60 s; a few million parameters where "
+       "grid-3d has tens of millions",
+       Sizing(vertices_per_pixel=1.5, max_resolution=385, doublings=3, samples_per_vertex=1.0)),
     _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4, mode="native"),
        dict(n_coarse=64, n_fine=32),
        dict(time_budget=60.0, lr=5e-3, lr_final=2e-4, batch_rays=2048, **_BUDGET),

@@ -20,8 +20,9 @@ def write_fit(run: Run, folder: Path, record: RunRecord | None = None, dataset: 
     if record is not None and dataset is not None and record.renders is not None:
         title = f"{dataset.name}, {run.recipe.name} ({run.backend.name})"
         plot_curves(run.state.history, folder / "curves.png", title)
-        save_renders(record.renders, dataset["test"], run.recipe.model.render.background, folder, dataset.near,
-                     dataset.far, title=title)
+        save_renders(record.renders, dataset["test"].subset(record.renders["views"]),
+                     run.recipe.model.render.render_background(), folder, dataset.near, dataset.far,
+                     title=title)
         save_density(run.backend.density, run.bound, dataset.dim, folder / "density.png",
                      dataset.meta.get("polygon"), title=f"density: {title}")
     return folder

@@ -87,7 +87,7 @@ def test_fit_flags(base, data):
         value = data.draw(st.one_of(st.text(max_size=8), st.sampled_from(["1,1", "0,0,2", "-1,0,0", "nan,0,0",
                                                                           "grey", "1,1,1,1", "WHITE"])), label="v")
         valid = {"--method": ["replay", "autodiff"], "--density-activation": ["relu", "softplus", "trunc_exp"],
-                 "--backend": ["drjit", "torch"], "--background": ["black", "white"]}[flag]
+                 "--backend": ["drjit", "torch"], "--background": ["black", "white", "random"]}[flag]
         if value in valid or (flag == "--background" and _rgb_ok(value)):
             value = "nope"
         extra, desc = as_args(data, flag, value), f"{flag} {value!r}"

@@ -1,0 +1,88 @@
+"""The standard benchmark at its own size: the NeRF Blender-synthetic lego (400 x 400; 100 train, 100 val and 200
+test views), fitted by the plain command line as a user runs it, each part in a fresh process:
+
+    mitnerf fit --data <lego_400> --time-budget 600     (part 600)
+    mitnerf fit --data <lego_400> --time-budget 3600    (part 3600)
+
+every other setting the defaults (the white background, all 200 test views). Each part records in
+``results.json`` (``lego/600``, ``lego/3600``) the test PSNR and SSIM over the 200 views, the steps, the
+evaluation's time and the process's peak memory, read from the run's ``metrics.json``, with the command and the
+machine. ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`). Where
+the data is absent, one line says so and nothing runs.
+
+    python benchmarks/lego.py [--parts 600 3600] [--data ../shared/data/nerf_synthetic/lego_400]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
+PARTS = ("600", "3600")
+ANCHORS = [
+    ("NeRF", "32.54", "about a day", "V100"),
+    ("Plenoxels", "~34.1", "11-15 min", "GPU"),
+    ("DVGO", "~34.6", "11-15 min", "GPU"),
+    ("instant-ngp", "29.6 / 33.4 / 36.4", "~5 s / ~15 s / 5 min", "RTX 3090"),
+    ("nerfacc (occupancy grid NeRF)", "35.67", "288 s", "TITAN RTX"),
+]
+"""Published test PSNR on lego, 800 x 800, white background, the 200 test views: (method, dB, training time, GPU)."""
+
+
+def fit(data: Path, budget: str) -> dict:
+    """``mitnerf fit`` with the time budget and nothing else, in a fresh process: its metrics and its own lines."""
+    out = ROOT / "out" / "lego" / budget
+    cmd = [sys.executable, "-m", "mitnerf", "fit", "--data", str(data), "--time-budget", budget, "--out", str(out)]
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    wall = time.perf_counter() - t0
+    if r.returncode:
+        sys.exit(f"{' '.join(cmd)} failed: {(r.stderr.strip().splitlines() or ['?'])[-1]}")
+    metrics = json.loads((out / "metrics.json").read_text())
+    lines = r.stdout.strip().splitlines()
+    return {"metrics": metrics, "wall": wall, "first": next((ln for ln in lines if ln.startswith("recipe ")), "?"),
+            "last": lines[-1], "command": " ".join(["python", *cmd[1:]]).replace(str(ROOT) + "/", "").replace(
+                str(ROOT.parent) + "/", "../")}
+
+
+def values_of(run: dict) -> dict:
+    m = run["metrics"]
+    return {"psnr": m["psnr"], "ssim": m["ssim"], "train_s": m["train_time"], "steps": m["steps"],
+            "eval_s": m["eval_time"], "peak_gib": m["peak_memory"], "views": m["views"],
+            "background": m["background"], "recipe": m["recipe"], "wall_s": run["wall"]}
+
+
+def summary(v: dict) -> str:
+    return (f"test PSNR {v['psnr']:.2f} dB, SSIM {v['ssim']:.3f} on {v['views']} views over {v['background']}; "
+            f"{v['steps']} steps in {v['train_s']:.0f} s; evaluation {v['eval_s']:.0f} s; peak memory "
+            f"{v['peak_gib']:.2f} GiB; recipe {v['recipe']}")
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS), help="which budgets to run (seconds)")
+    p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
+    args = p.parse_args(argv)
+    if not (args.data / "transforms_train.json").is_file():
+        print(f"lego: skipped, no Blender lego at {args.data} (see ../shared/data/README.md)")
+        return 0
+    from mitnerf.results import record_result
+    from mitnerf.train.config import TrainConfig
+
+    for budget in args.parts:
+        run = fit(args.data, budget)
+        v = values_of(run)
+        print(f"lego/{budget}: {summary(v)}\n    {run['first']}")
+        record_result(f"lego/{budget}", v, summary(v), run["command"], recipe=v["recipe"],
+                      threads=TrainConfig().threads)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,203 @@
+"""The evaluation protocol: the background a fit trains and evaluates over, and what it is told."""
+
+from __future__ import annotations
+
+import drjit as dr
+import numpy as np
+import pytest
+
+from mitnerf.data.cameras import Cameras
+from mitnerf.data.dataset import Dataset, Split
+from mitnerf.data.rays import background_colors
+from mitnerf.train.evaluate import evaluate
+from mitnerf.train.fit import resolve_background
+from mitnerf.train.recipes import get_recipe
+
+
+def one_view() -> Split:
+    """One 3D view of 3 x 3 pixels: the two left columns background (alpha 0), the right one grey 0.5, opaque."""
+    a = np.tile(np.array([0.0, 0.0, 1.0], np.float32), (1, 3, 1))                   # [1, 3, 3]
+    return Split(Cameras(np.eye(4)[None], 2.0, 3, 3), np.full((1, 3, 3, 3), 0.5, np.float32) * a[..., None], a)
+
+
+class WhiteRenders:
+    """A trained model stand-in whose every ray renders white, fully opaque."""
+
+    def __init__(self, recipe):
+        self.model_cfg, self.bound = recipe.model, 1.0
+
+    def render(self, origins, directions, chunk=None, footprint=None, spp=1):
+        n = len(origins)
+        return {"rgb": np.ones((n, 3), np.float32), "depth": np.ones(n, np.float32), "opacity": np.ones(n, np.float32)}
+
+    def n_params(self):
+        return 0
+
+
+@pytest.mark.parametrize("flag, line, expected", [
+    (None, "background white (the dataset's", 10.7918),
+    ("black", "background black (--background)", 1.2494),
+    ("random", "background random for training, white for evaluation (--background)", 10.7918)])
+def test_a_blender_scene_is_scored_over_white_unless_told(flag, line, expected):
+    # renders all white; over white the targets are 1 (6 pixels) and 0.5 (3): squared errors 0 and 0.25 per
+    # channel, MSE 0.75 / 9 = 0.08333, PSNR -10 log10(0.08333) = 10.7918 dB; over black the targets are 0 and
+    # 0.5: errors 1 and 0.25, MSE (6 + 0.75) / 9 = 0.75, PSNR 1.2494 dB. A random training background is
+    # evaluated over white.
+    split = one_view()
+    ds = Dataset({"train": split, "test": split}, 1.0, 3.0, {"format": "blender"})       # 3D, no stated colour
+    recipe = get_recipe("grid-3d").override(background=flag)
+    assert resolve_background(recipe, ds).startswith(line)
+    rec = evaluate(WhiteRenders(recipe), ds, geometry_metrics=False)
+    assert rec.psnr == pytest.approx(expected, abs=1e-4)
+    assert rec.background == "white" if flag != "black" else "black"
+
+
+def test_the_dataset_states_its_own_background():
+    # a tiny-NeRF file is composited over black already: its default is black, not the 3D white
+    split = one_view()
+    ds = Dataset({"train": split}, 1.0, 3.0, {"format": "tiny_nerf", "background": [0.0, 0.0, 0.0]})
+    recipe = get_recipe("grid-3d")
+    assert resolve_background(recipe, ds).startswith("background black (the dataset's")
+    assert recipe.model.render.background == "black"           # written into the recipe: the checkpoint records it
+
+
+def test_a_random_background_is_a_colour_per_ray_and_per_step():
+    split = one_view()
+    rays = split.rays("random")
+    a, b = rays.batch(np.array([0, 2, 0]), seed=1), rays.batch(np.array([0, 2, 0]), seed=2)
+    assert not np.array_equal(a.background, b.background)          # a fresh colour per step ...
+    assert not np.array_equal(a.background[0], a.background[2])    # ... and per ray, the same pixel too
+    assert ((a.background >= 0) & (a.background < 1)).all()
+    np.testing.assert_array_equal(a.target[0], a.background[0])     # the empty pixel shows its background
+    np.testing.assert_array_equal(a.target[1], [0.5, 0.5, 0.5])     # the opaque one its colour
+    np.testing.assert_array_equal(background_colors((1.0, 1.0, 1.0), 3, 2), np.ones((2, 3)))
+
+
+def test_a_declared_subset_of_evenly_spaced_test_views():
+    from mitnerf.train.evaluate import test_views
+
+    np.testing.assert_array_equal(test_views(200, 0), np.arange(200))          # the default: all of them
+    np.testing.assert_array_equal(test_views(200, 5), [0, 50, 100, 149, 199])   # linspace(0, 199, 5), rounded
+    np.testing.assert_array_equal(test_views(3, 7), [0, 1, 2])                 # more than there are: all
+
+
+def test_the_subset_is_what_is_measured():
+    # three views: the middle one grey as one_view(), the others empty. Renders all white over white: the empty
+    # views score no error, the grey one MSE 0.08333 (test above). Views 0 and 2 (2 of 3, evenly spaced): PSNR
+    # inf; all three: MSE 0.08333 / 3 = 0.02778, PSNR 15.563 dB.
+    v = one_view()
+    empty = Split(v.cameras, np.zeros_like(v.color), np.zeros_like(v.alpha))
+    split = Split.concatenate([empty, v, empty])
+    ds = Dataset({"train": split, "test": split}, 1.0, 3.0, {"format": "blender"})
+    recipe = get_recipe("grid-3d")
+    resolve_background(recipe, ds)
+    some = evaluate(WhiteRenders(recipe), ds, geometry_metrics=False, views=2)
+    every = evaluate(WhiteRenders(recipe), ds, geometry_metrics=False)
+    assert (some.views, some.split_views, some.psnr) == (2, 3, np.inf)
+    assert (every.views, every.psnr) == (3, pytest.approx(15.563, abs=1e-3))
+    assert some.line().startswith("test PSNR inf dB, SSIM 1.000 on 2 of 3 views")
+    assert "views" not in every.line()
+    np.testing.assert_array_equal(some.renders["views"], [0, 2])
+
+
+def test_fit_prints_and_records_the_protocol(bunny_small, tmp_path, capsys):
+    import json
+
+    from mitnerf.cli import main
+    from mitnerf.data.formats import save_dataset
+
+    save_dataset(bunny_small, tmp_path / "ds")
+    assert main(["fit", "--data", str(tmp_path / "ds"), "--iters", "5", "--field", "vanilla", "--mlp-width", "8",
+                 "--mlp-depth", "1", "--samples", "8", "--test-views", "3", "--out", str(tmp_path / "run")]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[1] == ("background black (the dataset's; --background white|black|random to change); "
+                        "test on 3 of 8 views (--test-views)")
+    assert " on 3 of 8 views, " in lines[-1]
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert (metrics["background"], metrics["views"], metrics["split_views"]) == ("black", 3, 8)
+
+
+def test_rays_decoded_per_batch_train_as_rays_held_in_memory(vase_small, tmp_path):
+    """A Blender folder of 8-bit images: its colours are held as the 8 bits and each batch decodes its own pixels;
+    training on them matches training on every pixel's ray held as floats in memory (the path before), step for
+    step (one thread: deterministic sums), to the test PSNR."""
+    from mitnerf.data.formats import load_dataset, save_dataset
+    from mitnerf.rng import step_seed
+    from mitnerf.train.engines import make_backend
+
+    save_dataset(vase_small, tmp_path / "ds", "blender")
+    for f in (tmp_path / "ds").rglob("*_linear.npy"):          # 8-bit PNG colours only, as a Blender scene
+        f.unlink()
+    ds = load_dataset(tmp_path / "ds")
+    assert ds["train"].eight_bit and ds["test"].eight_bit
+    recipe = get_recipe("grid-3d").at_steps(12, threads=1, resolution=17, initial_resolution=17, n_coarse=16,
+                                            batch_rays=256)
+    resolve_background(recipe, ds)
+    lazy = ds["train"].rays(recipe.model.render.render_background(), **recipe.train.ray_args())
+    held = lazy.batch(np.arange(len(lazy)))                   # every pixel's ray, float, in memory
+    o, d = ds["train"].cameras.rays()                           # as the cameras give them, all at once
+    np.testing.assert_array_equal(held.directions, d.reshape(-1, 3).astype(np.float32))
+    np.testing.assert_array_equal(held.origins, o.reshape(-1, 3).astype(np.float32))
+    index = np.arange(0, len(lazy), 7)
+    for name in ("origins", "directions", "target", "free", "depth", "hit"):
+        np.testing.assert_array_equal(getattr(lazy.batch(index), name), getattr(held, name)[index])
+    psnrs = []
+    try:
+        for rays in (lazy, held):
+            be = make_backend("drjit", recipe.model, recipe.train, 3, ds.bound, ds.near, ds.far)
+            be.set_data(rays)
+            for k in range(12):
+                be.read(be.step(k, step_seed(0, k), 0.05))
+            psnrs.append(evaluate(be, ds, geometry_metrics=False).psnr)
+    finally:
+        dr.set_thread_count(2)                                  # the session's count (conftest)
+    assert psnrs[0] == pytest.approx(psnrs[1], abs=1e-6) and psnrs[0] > 8, psnrs
+
+
+def test_a_foreign_scene_is_bounded_by_its_visual_hull(vase_small, tmp_path):
+    """A Blender folder without our provenance file: the bound comes from the box around the training views'
+    visual hull (alpha), tighter than the camera distances' guess and still around every surface point the depth
+    maps see."""
+    from mitnerf.data.formats import load_dataset, save_dataset
+
+    save_dataset(vase_small, tmp_path / "ds", "blender")
+    (tmp_path / "ds" / "mitnerf.json").unlink()                  # as anyone's Blender scene
+    ds = load_dataset(tmp_path / "ds")
+    guess = 1.1 * (np.median(np.linalg.norm(ds["train"].cameras.origins, axis=1)) - ds.near)
+    surface = []
+    for name in ("train", "test"):
+        o, d = vase_small[name].cameras.rays()
+        hit = np.isfinite(vase_small[name].depth)
+        surface.append((o + vase_small[name].depth[..., None] * d)[hit])
+    assert 1.1 * np.abs(np.concatenate(surface)).max() <= ds.bound < 0.8 * guess
+
+
+def views_at(focal: float, n: int = 3) -> Dataset:
+    """``n`` 3D cameras 4 units from the origin with ``focal`` (pixels), our object (bound 1.1), near 2, far 6."""
+    poses = np.stack([np.eye(4)] * n)
+    poses[:, 2, 3] = 4.0
+    split = Split(Cameras(poses, focal, 2, 2), np.zeros((n, 2, 2, 3), np.float32), np.ones((n, 2, 2), np.float32))
+    return Dataset({"train": split, "test": split}, 2.0, 6.0, {"kind": "3d"})
+
+
+@pytest.mark.parametrize("focal, final, start, bins, cells, levels", [
+    # a pixel's footprint at the origin: 4 / focal; the bound 1.1 spans 2.2 / footprint lattice spacings, 1.5 per
+    # pixel: 3.3 focal / 4 + 1 vertices. grid-3d: at most 161, two doublings; one bin per spacing over [2, 6]: 4 (R -
+    # 1) / 2.2 bins; a cell per two spacings. hashlinear-3d: at most 385, three doublings, a level each
+    (555.5, 161, 41, 291, 80, (49, 97, 193, 385)),   # 459 vertices: 161 = 40 * 4 + 1; 385 = 48 * 8 + 1
+    (138.9, 117, 30, 211, 58, (15, 29, 57, 113)),    # 115.6 vertices: 29 * 4 + 1 = 117; 14 * 8 + 1 = 113
+])
+def test_a_recipe_takes_its_lattice_and_samples_from_the_data(focal, final, start, bins, cells, levels):
+    recipe = get_recipe("grid-3d").sized(views_at(focal))
+    args, occ = recipe.model.field_args, recipe.model.render.occupancy
+    assert (args["resolution"], args["initial_resolution"], occ.march_bins, occ.resolution) == (final, start, bins,
+                                                                                                cells)
+    assert recipe.sizing is None and recipe.name == "grid-3d"                  # sized once, under its own name
+    assert get_recipe("hashlinear-3d").sized(views_at(focal)).model.field_args["resolutions"] == levels
+
+
+def test_a_size_set_on_the_recipe_stays():
+    recipe = get_recipe("grid-3d").override(resolution=65).sized(views_at(555.5))
+    args = recipe.model.field_args
+    assert (args["resolution"], args["initial_resolution"]) == (65, 17)        # 65 = 16 * 4 + 1: from 17
+    assert recipe.model.render.occupancy.march_bins == 117                     # ceil(4 * 64 / 2.2)
