@@ -22,7 +22,7 @@ from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
 from ..settings import setting
-from .args import add_recipe_flags, overrides, recipe_from_args
+from .args import add_recipe_flags, overrides, recipe_from_args, scene_from_args
 from .command import add_command, parse
 
 
@@ -47,6 +47,9 @@ class FitCommand:
     say why."""
     figures: bool = setting(True, flag="--figures")
     """Write figures beside the checkpoint and metrics."""
+    downscale: int = setting(1, lo=1, hi=64, flag="--downscale", unit="times smaller")
+    """Read the views this many times smaller (box-filtered; LLFF and COLMAP captures: from their images_N/ folder
+    where there is one, e.g. 8 for LLFF's 504 x 378 views)."""
 
 
 @dataclass(kw_only=True)
@@ -65,6 +68,9 @@ def register(sub) -> None:
     add_command(sub, "recipes", RecipesCommand, run_recipes,
                 help="list the training recipes with their measured figures")
 
+
+SCENE_LABELS = {"object": "an object in a box", "forward": "forward-facing, rendered in NDC",
+                "unbounded": "unbounded, in mip-NeRF 360's contracted space"}
 
 RESUMABLE = ("time_budget", "iters", "threads", "progress")
 """What ``--resume`` lets a flag change: how much longer (seconds or steps more), and how it runs."""
@@ -86,12 +92,14 @@ def run_fit(args) -> int:
         evaluated = "psnr" in read_manifest(cmd.resume).get("metrics", {})
         recipe, backend, out_path = extended(prior.recipe, resume["state"], overrides(args), cmd.resume,
                                              evaluated), prior.backend.name, Path(cmd.resume)
-        dataset = load_dataset(data)
+        dataset = load_dataset(data, int(prior.dataset_meta.get("downscale", 1)))
     else:
         if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
-        data, dataset = cmd.data, load_dataset(cmd.data)
-        recipe = recipe_from_args(args, dataset.dim)
+        data, dataset = cmd.data, load_dataset(cmd.data, cmd.downscale)
+        scene, why = scene_from_args(args, dataset)
+        recipe = recipe_from_args(args, dataset.dim, scene)
+        print(f"scene: {SCENE_LABELS[scene]} ({why}; --scene chooses)", flush=True)
         backend = cmd.backend or "drjit"
         out_path = Path(cmd.out) if cmd.out else fresh_folder(Path("out"), f"{dataset.name}-{recipe.name.rstrip('+')}")
     check_dataset(dataset, need_test=True)
@@ -100,7 +108,7 @@ def run_fit(args) -> int:
     if cmd.auto:
         if args.recipe:
             raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")
-        cfg = AutoConfig(families=(args.field,)) if args.field else None
+        cfg = AutoConfig(scene=recipe.model.render.scene, **({"families": (args.field,)} if args.field else {}))
         print("auto: probing candidates (each trains as long as the real run)", flush=True)
         recipe, reasons = choose_recipe(dataset, cfg, overrides(args), say=lambda line: print(f"auto: {line}",
                                                                                                flush=True))

@@ -16,6 +16,7 @@ from ..settings import check, parse_color, setting
 from .integral import W_MIN, RenderOutput
 from .occupancy import OccupancyConfig, OccupiedSampler
 from .samplers import Stratified, importance_sample
+from .space import SCENES, Space, check_frame
 from .volume import METHODS, volume_render
 
 
@@ -44,6 +45,14 @@ class RenderConfig:
     min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
+    scene: str = setting("auto", choices=("auto", *SCENES), flag="--scene")
+    """What the data shows: an object in a box, a forward-facing capture (rendered in NDC, as NeRF's LLFF scenes)
+    or an unbounded one (a room around the object, in mip-NeRF 360's contracted space); auto: chosen from the
+    data's alpha and its cameras' layout when a fit starts, and said (``mitnerf.render.space``)."""
+    frame: dict = field(default_factory=dict)
+    """A forward-facing or unbounded scene's frame, derived from the cameras when a fit starts (the map from world
+    to the warped space, the fields' half-extent there, near, far and the samples' knee:
+    ``mitnerf.render.space.scene_frame``); empty: not derived yet."""
 
     def __post_init__(self):
         self.background = tuple(self.background)
@@ -54,6 +63,17 @@ class RenderConfig:
         check(self)
         if len(self.background) != 3:
             raise ConfigError(f"--background needs 3 values (r, g, b), got {self.background!r}")
+        if self.frame:
+            check_frame(self.frame)
+
+    @property
+    def space(self) -> Space:
+        """The scene's space (a scene still ``auto`` renders as an object in a box)."""
+        if self.scene in ("auto", "object"):
+            return Space()
+        if not self.frame:
+            raise ConfigError(f"a {self.scene} scene needs its frame: fit derives it from the cameras")
+        return Space(self.scene, self.frame)
 
 
 def split_params(params: dict, prefix: str) -> dict:
@@ -117,16 +137,16 @@ class Model:
                occupied: Float | None = None) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
         ``'samples': (t, delta)`` of the final pass when ``weights`` is set."""
-        cfg = self.render_cfg
+        cfg, space = self.render_cfg, self.render_cfg.space
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
         if occupied is None or not cfg.occupancy.enabled:
-            sampler = Stratified(cfg.n_coarse, seed, jitter=training)
+            sampler = Stratified(cfg.n_coarse, seed, jitter=training, knee=space.knee)
         else:
             sampler = OccupiedSampler(occupied, cfg.n_coarse, cfg.occupancy.march_bins,
                                       self.fields["coarse"].bound, cfg.occupancy.resolution, seed,
-                                      jitter=training).build(origins, directions, near, far)
-        kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight)
+                                      jitter=training, space=space).build(origins, directions, near, far)
+        kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
                                           near, far, sampler, cfg.background, weights=weights or cfg.n_fine > 0, **kw),
                   "fine": None}

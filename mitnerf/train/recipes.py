@@ -105,9 +105,11 @@ class Recipe:
         return getattr(self.model.field_config(self.dim), key)
 
     def essence(self) -> dict:
-        """The settings that change what is trained (not progress bars or thread counts); field settings
-        with their defaults filled in, so a setting written at its default value changes nothing."""
+        """The settings that change what is trained (not progress bars or thread counts, nor the scene, which the
+        data decides like the box); field settings with their defaults filled in, so a setting written at its
+        default value changes nothing."""
         d = self.to_dict()
+        d["model"]["render"] = {k: v for k, v in d["model"]["render"].items() if k not in ("scene", "frame")}
         full = dataclasses.asdict(self.model.field_config(self.dim))
         d["model"]["field_args"] = {k: v for k, v in full.items() if k != "dim"}
         d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads")}
@@ -215,7 +217,8 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(iters=8000, time_budget=150.0, lr=2e-3, lr_final=2e-4, batch_rays=32, val_every=0),
        "2D pixelNeRF trained across scenes (`mitnerf experiment pixelnerf`): 32 rays x 32 samples per step"),
 ]}
-DEFAULT = {2: "grid-2d", 3: "grid-3d"}
+DEFAULT = {2: "grid-2d", 3: "grid-3d", "forward": "grid-forward", "unbounded": "grid-unbounded"}
+"""The default recipe for data of each dimension, and for forward-facing and unbounded captures (``--scene``)."""
 
 # The sizes the searches try: each a family and settings on top of the family's recipe.
 LADDER = {
@@ -246,8 +249,16 @@ def get_recipe(name: str) -> Recipe:
     return RECIPES[name].copy()
 
 
-def recipe_for(field: str | None, dim: int) -> Recipe:
-    """The tuned recipe of ``field`` (the default one when None) for datasets of ``dim``."""
+def recipe_for(field: str | None, dim: int, scene: str = "object") -> Recipe:
+    """The tuned recipe of ``field`` (the default one when None) for datasets of ``dim`` showing ``scene``: a
+    forward-facing or unbounded scene's own recipe where the family has one, else its 3D recipe in that scene."""
+    if scene in ("forward", "unbounded"):
+        name = DEFAULT[scene] if field is None else f"{field}-{scene}"
+        if name in RECIPES:
+            return get_recipe(name)
+        out = recipe_for(field, dim)
+        out.model.render.scene = scene
+        return out
     if field is None:
         return get_recipe(DEFAULT[dim])
     name = f"{field}-{dim}d"
