@@ -14,6 +14,7 @@ from mitnerf.reference.render.samplers import Stratified as TwinStratified
 from mitnerf.reference.render.volume import TORCH
 from mitnerf.render.space import Space, contract, ndc, pick_scene, scene_frame, to_s, to_t
 from mitnerf.viz.paths import capture_poses, spiral_poses
+from mitnerf.viz.video import read_video
 
 NP = type(TORCH)(np.sqrt, lambda a, c: np.minimum(a, c), np.where)
 
@@ -113,8 +114,8 @@ def test_the_frames_fit_the_cameras(vase_small):
             x, s = space.warp(list((o + t * d).T), list(d.T), NP)
             assert np.abs(np.array(x)[:2]).max() <= 1 + 1e-9 and np.all(s > 0)
     m = np.array(f["matrix"])
-    assert m[2, 2] == pytest.approx(1 / 1.5)                   # q_z in units of the near plane: 0.75 x bound 2
-    assert f["near"] == pytest.approx(1.5) and f["bound"] == 1.0 and f["knee"] == f["near"]
+    assert m[2, 2] == pytest.approx(1 / 1.8)                   # q_z in units of the near plane: 0.9 x bound 2
+    assert f["near"] == pytest.approx(1.8) and f["far"] == 7.5 and f["bound"] == 1.0 and f["knee"] == f["near"]
     u = scene_frame(vase_small, "unbounded")
     m = np.array(u["matrix"])
     poses = np.concatenate([s.cameras.poses for s in vase_small.splits.values()])
@@ -159,3 +160,28 @@ def test_a_capture_path_passes_through_the_cameras():
     assert steps.max() < 2 * steps.min()                                  # smooth, no jumps
     rot = path[:, :3, :3]
     np.testing.assert_allclose(np.einsum("nij,nik->njk", rot, rot), np.tile(np.eye(3), (31, 1, 1)), atol=1e-9)
+
+
+def test_fit_says_the_scene_it_picked_and_video_follows_it(vase_small, tmp_path, capsys):
+    """`mitnerf fit` on a forward-facing LLFF export trains in NDC and says why in one line; `mitnerf video` then
+    takes the spiral, and on an unbounded capture (our vase exported without its provenance) the capture's path."""
+    from mitnerf.cli import main
+
+    save_dataset(forward_capture(), tmp_path / "fwd", "llff")
+    save_dataset(vase_small, tmp_path / "ring", "colmap")
+    (tmp_path / "ring" / META).unlink()
+    quick = ["--iters", "3", "--batch", "64", "--samples", "8", "--no-figures", "--no-progress"]
+    for data, scene, path in (("fwd", "forward-facing, rendered in NDC (every camera looks within 30 degrees",
+                               "path: a spiral in front of the capture (the run is of a forward-facing scene"),
+                              ("ring", "unbounded, in mip-NeRF 360's contracted space (the cameras look around",
+                               "path: along the capture's own camera path (the run is of an unbounded scene")):
+        assert main(["fit", "--data", str(tmp_path / data), "--out", str(tmp_path / f"{data}-run"), *quick]) == 0
+        out = capsys.readouterr().out
+        assert f"scene: {scene}" in out and "; --scene chooses)" in out
+        assert main(["video", "--checkpoint", str(tmp_path / f"{data}-run"), "--out", str(tmp_path / f"{data}-video"),
+                     "--frames", "3", "--image-size", "8"]) == 0
+        out = capsys.readouterr().out
+        assert path in out and "mesh" not in out                    # no mesh of a warped space
+        assert read_video(tmp_path / f"{data}-video" / "color.gif").shape[:2] == (3, 6 if data == "fwd" else 8)
+    main(["fit", "--data", str(tmp_path / "fwd"), "--scene", "object", "--out", str(tmp_path / "obj"), *quick])
+    assert "scene: an object in a box (--scene object; --scene chooses)" in capsys.readouterr().out

@@ -6,6 +6,7 @@ lists the recipes, their settings, and the figures measured for them."""
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 from dataclasses import dataclass
@@ -24,6 +25,28 @@ from ..train.report import write_fit
 from ..settings import setting
 from .args import add_recipe_flags, overrides, recipe_from_args, scene_from_args
 from .command import add_command, parse
+
+
+MAX_TRAIN_PIXELS = 6_000_000
+"""Training pixels that ``fit`` reads at most unless ``--downscale`` says otherwise: a run of minutes on a CPU draws
+some ten million rays, so more pixels are seen less than twice each and cost memory (each training ray holds about
+70 bytes, twice)."""
+
+
+def read_views(path: str, downscale: int | None):
+    """The dataset at ``path``, ``downscale`` times smaller; None: as it is, or as many times smaller as it takes to
+    keep its training pixels under :data:`MAX_TRAIN_PIXELS` (read again so, and said)."""
+    dataset = load_dataset(path, downscale or 1)
+    train = dataset["train"] if "train" in dataset.splits else None
+    pixels = 0 if train is None else len(train) * train.cameras.height * train.cameras.width
+    if downscale is not None or pixels <= MAX_TRAIN_PIXELS:
+        return dataset
+    k = math.ceil(math.sqrt(pixels / MAX_TRAIN_PIXELS))
+    smaller = load_dataset(path, int(dataset.meta.get("downscale", 1)) * k)
+    c = smaller["train"].cameras
+    print(f"views: read {k} times smaller, {c.width} x {c.height} (the {len(train)} training views hold "
+          f"{pixels / 1e6:.0f} million pixels; --downscale 1 keeps them all)", flush=True)
+    return smaller
 
 
 @dataclass(kw_only=True)
@@ -47,9 +70,11 @@ class FitCommand:
     say why."""
     figures: bool = setting(True, flag="--figures")
     """Write figures beside the checkpoint and metrics."""
-    downscale: int = setting(1, lo=1, hi=64, flag="--downscale", unit="times smaller")
+    downscale: int | None = setting(None, lo=1, hi=64, flag="--downscale", unit="times smaller",
+                                    shown=f"1, or the least that leaves at most {MAX_TRAIN_PIXELS // 10 ** 6} million "
+                                          "training pixels (said)")
     """Read the views this many times smaller (box-filtered; LLFF and COLMAP captures: from their images_N/ folder
-    where there is one, e.g. 8 for LLFF's 504 x 378 views)."""
+    where there is one: 8 reads LLFF's 504 x 378 views)."""
 
 
 @dataclass(kw_only=True)
@@ -96,7 +121,7 @@ def run_fit(args) -> int:
     else:
         if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
-        data, dataset = cmd.data, load_dataset(cmd.data, cmd.downscale)
+        data, dataset = cmd.data, read_views(cmd.data, cmd.downscale)
         scene, why = scene_from_args(args, dataset)
         recipe = recipe_from_args(args, dataset.dim, scene)
         print(f"scene: {SCENE_LABELS[scene]} ({why}; --scene chooses)", flush=True)
@@ -200,7 +225,10 @@ def run_recipes(args) -> int:
             continue
         t = r.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
-        print(f"{name} ({r.dim}D, {budget}{', the default' if DEFAULT[r.dim] == name else ''}): {r.purpose}")
+        default = next((k for k, v in DEFAULT.items() if v == name), None)
+        default = "" if default is None else ", the default" + (f" for {default} scenes" if isinstance(default, str)
+                                                                 else "")
+        print(f"{name} ({r.dim}D, {budget}{default}): {r.purpose}")
         mine = sorted(((k, e) for k, e in results.items() if e.get("recipe") == name),
                       key=lambda ke: (not ke[0].startswith(FIRST), ke[0]))
         for key, entry in mine if args.verbose else mine[:1]:

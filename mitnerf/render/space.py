@@ -9,7 +9,8 @@ A scene is one of :data:`SCENES`:
   depth in units of the near plane ``n = 0.75 x`` the nearest depth bound (NeRF scales the nearest bound to
   ``1 / 0.75``) and ``x, y`` scaled so every camera's rays stay inside ``|x'|, |y'| <= 1``; then
   ``x' = -q_x / q_z, y' = -q_y / q_z, z' = 1 + 2 / q_z``: the frustum from the near plane to infinity fills
-  ``[-1, 1]^3``. Samples are spaced linearly in disparity (``1 / t``), which is linear in ``z'``.
+  ``[-1, 1]^3``. Samples are spaced linearly in disparity (``1 / t``), which is linear in ``z'``, from the near plane
+  to 1.5 x the farthest depth bound.
 * ``unbounded``: a room around the object (instant-ngp's fox): ``q = (x - c) / r`` with ``c`` the point the cameras
   look at and ``r`` their largest distance from it, then mip-NeRF 360's contraction ``x' = q`` for ``|q| <= 1``,
   ``(2 - 1 / |q|) q / |q|`` beyond: all of space fills the ball of radius 2. Samples are linear in distance up to
@@ -36,9 +37,11 @@ from ..data.formats.capture import FORWARD_CONE, layout
 from ..errors import ConfigError
 
 SCENES = ("object", "forward", "unbounded")
-NEAR_SCALE = 0.75
-"""The NDC near plane as a share of the nearest depth bound (NeRF's LLFF setting)."""
+NEAR_SCALE, FAR_SCALE = 0.9, 1.5
+"""The NDC near plane as a share of the nearest depth bound, and the samples' far end as a multiple of the farthest
+(the bounds come from the sparse points LLFF and COLMAP saw)."""
 EPS = 1e-6
+INNER = 1.0
 
 
 @dataclass(frozen=True)
@@ -192,10 +195,10 @@ def scene_frame(dataset: Dataset, kind: str) -> dict:
         A = np.diag([1 / extent[0], 1 / extent[1], 1.0]) @ A
         near = n * max(float((1.0 + q_cam[:, 2]).min()), 0.05)     # the nearest crossing: along the axis
         far_bound = float(bounds[:, 1].max())
-        frame = dict(bound=1.0, near=near, far=max(2.0 * far_bound, 4.0 * near), knee=near)
+        frame = dict(bound=1.0, near=near, far=max(FAR_SCALE * far_bound, 2.0 * near), knee=near)
     elif kind == "unbounded":
         c = focus_point(poses)
-        r = float(np.linalg.norm(poses[:, :3, 3] - c, axis=1).max())
+        r = INNER * float(np.linalg.norm(poses[:, :3, 3] - c, axis=1).max())
         if not r > 0:
             raise ConfigError("the cameras all stand at one point: an unbounded scene needs cameras that move")
         A = np.eye(3) / r
