@@ -9,6 +9,7 @@ from ..errors import ConfigError
 from ..fields import CONDITIONED, FIELDS
 from ..render.occupancy import OccupancyConfig
 from ..render.pipeline import RenderConfig
+from ..render.space import pick_scene
 from ..settings import add_flags, check_value, parse_set, show_value
 from ..train.config import TrainConfig
 from ..train.recipes import DEFAULT, RECIPES, get_recipe, recipe_for
@@ -51,12 +52,22 @@ def overrides(args) -> dict:
     return {**out, **dict(args.sets)}
 
 
-def recipe_from_args(args, dataset):
-    """The recipe the flags describe for ``dataset`` (sized for it, :meth:`~mitnerf.train.recipes.Recipe.sized`),
-    checked."""
+def scene_from_args(args, dataset) -> tuple[str, str]:
+    """``(scene, why)``: the one ``--scene`` names, else the one a recipe named by ``--recipe`` is for, else the one
+    the data shows (:func:`~mitnerf.render.space.pick_scene`)."""
+    typed = overrides(args).get("scene", "auto")
+    if typed != "auto":
+        return typed, f"--scene-type {typed}"
+    named = get_recipe(args.recipe).model.render.scene if args.recipe else "auto"
+    return (named, f"the recipe {args.recipe} is for it") if named != "auto" else pick_scene(dataset)
+
+
+def recipe_from_args(args, dataset, scene: str = "object"):
+    """The recipe the flags describe for ``dataset`` showing ``scene``, sized for it
+    (:meth:`~mitnerf.train.recipes.Recipe.sized`), checked."""
     if args.recipe and args.field:
         raise ConfigError("--recipe and --field both choose the recipe; pass one of them")
-    base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dataset.dim)
+    base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dataset.dim, scene)
     for key, value in args.sets:
         where = base.declared(key)
         if where is None:
@@ -64,8 +75,9 @@ def recipe_from_args(args, dataset):
                               f"`mitnerf recipes --verbose` lists its settings")
         check_value(*where, value, prefix="occupancy." if key.startswith("occupancy.") else "")
     flags = {k: v for k, v in overrides(args).items() if k not in dict(args.sets)}
-    recipe = base.override(**flags).override(nulls=True, **dict(args.sets))._marked(base).sized(dataset).validate()
-    check_step_memory(recipe)
+    recipe = base.override(**flags).override(nulls=True, **dict(args.sets))._marked(base).sized(dataset)
+    recipe.model.render.scene = scene
+    check_step_memory(recipe.validate())
     return recipe
 
 

@@ -6,6 +6,7 @@ lists the recipes, their settings, and the figures measured for them."""
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 from dataclasses import dataclass
@@ -23,8 +24,30 @@ from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
 from ..settings import setting
-from .args import add_recipe_flags, overrides, recipe_from_args
+from .args import add_recipe_flags, overrides, recipe_from_args, scene_from_args
 from .command import add_command, parse
+
+
+MAX_TRAIN_PIXELS = 6_000_000
+"""Training pixels that ``fit`` reads at most unless ``--downscale`` says otherwise: a run of minutes on a CPU draws
+some ten million rays, so more pixels are seen less than twice each and cost memory (each training ray holds about
+70 bytes, twice)."""
+
+
+def read_views(path: str, downscale: int | None):
+    """The dataset at ``path``, ``downscale`` times smaller; None: as it is, or as many times smaller as it takes to
+    keep its training pixels under :data:`MAX_TRAIN_PIXELS` (read again so, and said)."""
+    dataset = load_dataset(path, downscale or 1)
+    train = dataset["train"] if "train" in dataset.splits else None
+    pixels = 0 if train is None else len(train) * train.cameras.height * train.cameras.width
+    if downscale is not None or pixels <= MAX_TRAIN_PIXELS:
+        return dataset
+    k = math.ceil(math.sqrt(pixels / MAX_TRAIN_PIXELS))
+    smaller = load_dataset(path, int(dataset.meta.get("downscale", 1)) * k)
+    c = smaller["train"].cameras
+    print(f"views: read {k} times smaller, {c.width} x {c.height} (the {len(train)} training views hold "
+          f"{pixels / 1e6:.0f} million pixels; --downscale 1 keeps them all)", flush=True)
+    return smaller
 
 
 @dataclass(kw_only=True)
@@ -48,6 +71,11 @@ class FitCommand:
     say why."""
     figures: bool = setting(True, flag="--figures")
     """Write figures beside the checkpoint and metrics."""
+    downscale: int | None = setting(None, lo=1, hi=64, flag="--downscale", unit="times smaller",
+                                    shown=f"1, or the least that leaves at most {MAX_TRAIN_PIXELS // 10 ** 6} million "
+                                          "training pixels (said)")
+    """Read the views this many times smaller (box-filtered; LLFF and COLMAP captures: from their images_N/ folder
+    where there is one: 8 reads LLFF's 504 x 378 views)."""
 
 
 @dataclass(kw_only=True)
@@ -66,6 +94,9 @@ def register(sub) -> None:
     add_command(sub, "recipes", RecipesCommand, run_recipes,
                 help="list the training recipes with their measured figures")
 
+
+SCENE_LABELS = {"object": "an object in a box", "forward": "forward-facing, rendered in NDC",
+                "unbounded": "unbounded, in mip-NeRF 360's contracted space"}
 
 RESUMABLE = ("time_budget", "iters", "threads", "progress")
 """What ``--resume`` lets a flag change: how much longer (seconds or steps more), and how it runs."""
@@ -87,12 +118,15 @@ def run_fit(args) -> int:
         evaluated = "psnr" in read_manifest(cmd.resume).get("metrics", {})
         recipe, backend, out_path = extended(prior.recipe, resume["state"], overrides(args), cmd.resume,
                                              evaluated), prior.backend.name, Path(cmd.resume)
-        dataset = load_dataset(data)
+        dataset = load_dataset(data, int(prior.dataset_meta.get("downscale", 1)))
     else:
         if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
-        data, dataset = cmd.data, load_dataset(cmd.data)
-        recipe = recipe_from_args(args, dataset)
+        data, dataset = cmd.data, read_views(cmd.data, cmd.downscale)
+        scene, why = scene_from_args(args, dataset)
+        recipe = recipe_from_args(args, dataset, scene)
+        if dataset.dim == 3:                                            # 2D data is always an object in a box
+            print(f"scene: {SCENE_LABELS[scene]} ({why}; --scene-type chooses)", flush=True)
         backend = cmd.backend or "drjit"
         out_path = Path(cmd.out) if cmd.out else fresh_folder(Path("out"), f"{dataset.name}-{recipe.name.rstrip('+')}")
     check_dataset(dataset, need_test=True)
@@ -101,7 +135,7 @@ def run_fit(args) -> int:
     if cmd.auto:
         if args.recipe:
             raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")
-        cfg = AutoConfig(families=(args.field,)) if args.field else None
+        cfg = AutoConfig(scene=recipe.model.render.scene, **({"families": (args.field,)} if args.field else {}))
         print("auto: probing candidates (each trains as long as the real run)", flush=True)
         recipe, reasons = choose_recipe(dataset, cfg, overrides(args), say=lambda line: print(f"auto: {line}",
                                                                                                flush=True))
@@ -199,7 +233,10 @@ def run_recipes(args) -> int:
             continue
         t = r.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
-        print(f"{name} ({r.dim}D, {budget}{', the default' if DEFAULT[r.dim] == name else ''}): {r.purpose}")
+        default = next((k for k, v in DEFAULT.items() if v == name), None)
+        default = "" if default is None else ", the default" + (f" for {default} scenes" if isinstance(default, str)
+                                                                 else "")
+        print(f"{name} ({r.dim}D, {budget}{default}): {r.purpose}")
         mine = sorted(((k, e) for k, e in results.items() if e.get("recipe") == name),
                       key=lambda ke: (not ke[0].startswith(FIRST), ke[0]))
         for key, entry in mine if args.verbose else mine[:1]:

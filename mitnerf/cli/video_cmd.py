@@ -1,12 +1,16 @@
-"""``mitnerf video --checkpoint RUN --out DIR``: ``color`` and ``depth`` ``.gif``/``.mp4`` (a 360 degree orbit of a
-trained 3D field, looking at the origin) and, unless ``--no-mesh``, ``mesh.ply`` (the density isosurface at
-``--level``), ``mesh.png`` (beside the ground truth) and, when the dataset names its ground-truth mesh,
-``chamfer.json`` (printed too). The last line reads ``video <n> frames <W>x<H> in <t> s (<fps> frames/s)``."""
+"""``mitnerf video --checkpoint RUN --out DIR``: ``color`` and ``depth`` ``.gif``/``.mp4`` of a trained 3D field along
+a path that fits its scene (``--path``: a 360 degree orbit of an object looking at the origin, a spiral in front of a
+forward-facing capture, the capture's own path through an unbounded one; :mod:`mitnerf.viz.paths`) and, for an
+object unless ``--no-mesh``, ``mesh.ply`` (the density isosurface at ``--level``), ``mesh.png`` (beside the ground
+truth) and, when the dataset names its ground-truth mesh, ``chamfer.json`` (printed too). The last line reads
+``video <n> frames <W>x<H> in <t> s (<fps> frames/s)``."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from .._io import Output, json_text
 from ..errors import MitnerfError
@@ -15,6 +19,7 @@ from ..scenes.objects3d import OBJECTS_3D
 from ..scenes.registry import get_scene
 from ..train.checkpoint import load_checkpoint
 from ..viz.rigs import plot_mesh_comparison
+from ..viz.paths import PATH_OF, path_cameras
 from ..viz.video import OrbitConfig, orbit_video
 from ..settings import setting, show_value
 from .command import add_command, options, parse
@@ -34,8 +39,8 @@ def parse_level(text: str) -> str:
 
 @dataclass(kw_only=True)
 class VideoCommand:
-    """``mitnerf video``: a 360 degree orbit of a trained 3D field and its mesh (the orbit's options:
-    :class:`~mitnerf.viz.video.OrbitConfig`)."""
+    """``mitnerf video``: a video of a trained 3D field along a path that fits its scene, and an object's mesh (the
+    path's options: :class:`~mitnerf.viz.video.OrbitConfig`)."""
 
     checkpoint: str = setting(flag="--checkpoint", metavar="RUN")
     """A trained 3D model: the folder `mitnerf fit` wrote."""
@@ -44,7 +49,7 @@ class VideoCommand:
     overwrite: bool = setting(False, flag="--overwrite")
     """Write into a folder that holds other files (they are left alone)."""
     mesh: bool = setting(True, flag="--mesh")
-    """Also extract the density's mesh and compare it with the ground truth."""
+    """Also extract the density's mesh and compare it with the ground truth (objects in a box only)."""
     level: str = setting(str(LEVEL), flag="--level", parse=parse_level, metavar="DENSITY|auto")
     """Density of the mesh surface, or auto (the level of mitnerf's geometry metrics); grid fields peak around
     10-30, so level 10 cuts holes in them."""
@@ -57,7 +62,7 @@ class VideoCommand:
 def register(sub) -> None:
     add_command(sub, "video", VideoCommand, run,
                 (OrbitConfig, "orbit.", lambda key: show_value(getattr(OrbitConfig(), key.split(".", 1)[1]))),
-                help="a turn-table video (colour, depth) and the mesh of a trained 3D field")
+                help="a video (colour, depth) of a trained 3D field along a path that fits its scene, and its mesh")
 
 
 def ground_truth(meta: dict) -> tuple[Path | None, Path | None]:
@@ -74,16 +79,43 @@ def run(args) -> int:
     cfg.validate()
     level = args.level if args.level == "auto" else float(args.level)
     target = Output(args.out, "video", args.overwrite, inputs=[args.checkpoint])
-    model, _ = load_checkpoint(args.checkpoint, args.backend, dim=3, need="`mitnerf video` (a 360 degree orbit)")
+    model, _ = load_checkpoint(args.checkpoint, args.backend, dim=3, need="`mitnerf video` (a 3D field)")
+    render = model.recipe.model.render
+    scene = "object" if render.scene == "auto" else render.scene
+    path = PATH_OF[scene] if cfg.path == "auto" else cfg.path
+    capture = model.dataset_meta.get("cameras")
+    if path != "orbit" and not capture:
+        raise MitnerfError(f"--path {path} follows the training cameras, which {args.checkpoint} does not record (an "
+                           "object's run); pass --path orbit")
+    print(f"path: {PATH_WORDS[path]} ({'--path' if cfg.path != 'auto' else 'the run is ' + SCENE_WORDS[scene]}; "
+          "--path chooses)", flush=True)
+    cams = None if path == "orbit" else path_cameras(path, capture, cfg.n_frames, cfg.resolution,
+                                                     *depth_range(model))
     with target.staged() as tmp:
-        video = orbit_video(model.backend, cfg, tmp, model.recipe.model.render.render_background())
-        if args.mesh:
+        video = orbit_video(model.backend, cfg, tmp, render.render_background(), cameras=cams)
+        if args.mesh and scene == "object":
             write_mesh_outputs(model, tmp, level, args.mesh_resolution, cfg)
     for name in ("color.gif", "color.mp4", "depth.gif", "depth.mp4", "mesh.ply", "mesh.png", "chamfer.json"):
         if (target.path / name).exists():
             print(f"wrote {target.path / name}")
     print(video.summary())
     return 0
+
+
+PATH_WORDS = {"orbit": "a 360 degree orbit around the object", "spiral": "a spiral in front of the capture",
+              "capture": "along the capture's own camera path"}
+SCENE_WORDS = {"object": "of an object in a box", "forward": "of a forward-facing scene",
+               "unbounded": "of an unbounded scene"}
+
+
+def depth_range(model) -> tuple[float, float]:
+    """The nearest and farthest depths of the capture (LLFF's bounds, else the run's near and far): the spiral's
+    focus."""
+    bounds = model.dataset_meta.get("bounds")
+    if bounds:
+        b = np.asarray(bounds, np.float64)
+        return float(b[:, 0].min()), float(b[:, 1].max())
+    return model.backend.near, model.backend.far
 
 
 def write_mesh_outputs(model, out: Path, level, resolution: int, cfg, progress: bool = True) -> dict:

@@ -10,7 +10,8 @@ of zero lands on either side in Dr.Jit's FMAs and torch's GEMMs, and that sample
 step; bugs give 1e-2 and more); central differences (eps 1e-2, the 3 largest-gradient entries of every parameter
 no ReLU follows, 3 rays x 8 samples) within 2e-2 x max(|grad|, |fd|, 10 % of the tensor's largest gradient).
 Weights: the field's initialisation plus N(0, 0.3) noise on grid values and hash tables (they start constant or
-near zero); networks keep theirs, since noise there puts pre-activations within the step of their kinks.
+near zero); networks keep theirs, since noise there puts pre-activations within the step of their kinks. In 3D the
+same checks run in a forward-facing (NDC) or unbounded (contracted) scene's space (:data:`FRAMES`).
 """
 
 from __future__ import annotations
@@ -55,6 +56,17 @@ KINK_FREE = {"vanilla": ("sigma", "color.1"), "grid": ("density", "color"), "has
 """Parameters no ReLU follows: moving them by the finite-difference step moves no kink, so central
 differences in fp32 are exact to rounding (earlier layers are checked against plain AD and torch)."""
 TORCH_NAMES = {"density_grid": "density", "color_grid": "color", "density_table": "density", "color_table": "color"}
+FRAMES = {"object": {},
+          "unbounded": dict(matrix=[[0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 0.5, 0]], bound=2.0, near=1.0, far=7.0,
+                            knee=2.0),
+          "forward": dict(matrix=[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, -4.5]], bound=1.0, near=1.0, far=7.0,
+                          knee=1.0)}
+"""The scenes the harness checks, and their frames (:func:`mitnerf.render.space.scene_frame`'s keys): the rays'
+origins (radius 4) map outside the contraction's unit ball, and the NDC near plane lies at world ``z = 3.5``."""
+
+
+def bound_of(mc: ModelConfig) -> float:
+    return mc.render.frame.get("bound", 1.5)
 
 
 @dataclass
@@ -102,7 +114,7 @@ def run_drjit(model_cfg: ModelConfig, weights: dict, o, d, cot: dict, mode, meth
     """One Dr.Jit path -> ({quantity: values}, {parameter or ray input: gradient})."""
     args = dict(model_cfg.field_args) if mode is None else {**model_cfg.field_args, "mode": mode}
     cfg = dataclasses.replace(model_cfg, field_args=args, render=dataclasses.replace(model_cfg.render, method=method))
-    model = build_model(cfg, o.shape[1], 1.5)
+    model = build_model(cfg, o.shape[1], bound_of(cfg))
     params = model.from_numpy(weights)
     O, D = [Float(c) for c in o.T], [Float(c) for c in d.T]
     dr.enable_grad(params, O, D)
@@ -128,7 +140,7 @@ def run_drjit(model_cfg: ModelConfig, weights: dict, o, d, cot: dict, mode, meth
 
 def run_torch(model_cfg: ModelConfig, weights: dict, o, d, cot: dict, seed: int):
     """The torch twin, as :func:`run_drjit`, its parameters named as Dr.Jit names them."""
-    model = build_torch_model(model_cfg, o.shape[1], 1.5)
+    model = build_torch_model(model_cfg, o.shape[1], bound_of(model_cfg))
     model.load_numpy(weights)
     O, D = torch.tensor(o, requires_grad=True), torch.tensor(d, requires_grad=True)
     outs = model.render(O, D, 1.0, 7.0, seed, training=True)
@@ -150,10 +162,11 @@ def run_torch(model_cfg: ModelConfig, weights: dict, o, d, cot: dict, seed: int)
     return res, grads
 
 
-def finite_differences(field: str, dim: int, seed: int = 0) -> float:
+def finite_differences(field: str, dim: int, seed: int = 0, scene: str = "object") -> float:
     """Worst relative error of the custom-op gradient of a tiny case against central differences (fp32,
     eps 1e-2); every colour counts (``w_min = 0``), so no step moves a sample across the colour threshold."""
-    args = {**FIELD_ARGS[field], "dim": dim, "bound": 1.5}
+    space = RenderConfig(scene=scene, frame=FRAMES[scene]).space
+    args = {**FIELD_ARGS[field], "dim": dim, "bound": FRAMES[scene].get("bound", 1.5)}
     if field == "vanilla":
         args.update(width=8, depth=2, pos_L=2, dir_L=2, density_activation="softplus", mode="coopvec")
     if field == "hashgrid":
@@ -169,7 +182,8 @@ def finite_differences(field: str, dim: int, seed: int = 0) -> float:
         if grad:
             dr.enable_grad(p)
         out = volume_render(f, p, [Float(c) for c in o.T], [Float(c) for c in d.T], 1.0, 7.0,
-                            Stratified(8, UInt32(3), jitter=True), (0.1, 0.2, 0.3), w_min=0.0)
+                            Stratified(8, UInt32(3), jitter=True, knee=space.knee), (0.1, 0.2, 0.3), w_min=0.0,
+                            space=space)
         loss = sum(dr.sum(v * Float(cot[:, k])) for k, v in enumerate(out.rgb + [out.depth, out.opacity]))
         if grad:
             dr.backward(loss)
@@ -190,12 +204,14 @@ def finite_differences(field: str, dim: int, seed: int = 0) -> float:
 
 
 def check_parity(field: str = "vanilla", dim: int = 2, rays: int = 64, samples: int = 32, fine: int = 16,
-                 width: int = 16, seed: int = 0) -> Parity:
+                 width: int = 16, seed: int = 0, scene: str = "object") -> Parity:
     """Every path of ``field`` (``dim`` D; the MLP ``width`` wide) and the torch twin on the same weights, ``rays``
-    rays of ``samples`` coarse and ``fine`` fine samples (0: no fine pass) and cotangents, drawn from ``seed``."""
+    rays of ``samples`` coarse and ``fine`` fine samples (0: no fine pass) and cotangents, drawn from ``seed``, in
+    the space of ``scene`` (:data:`FRAMES`; 3D)."""
     mc = ModelConfig(field, {**FIELD_ARGS[field], **({"width": width} if field == "vanilla" else {})},
-                     RenderConfig(n_coarse=samples, n_fine=fine, background=(0.2, 0.3, 0.4)))
-    model = build_model(mc, dim, 1.5)
+                     RenderConfig(n_coarse=samples, n_fine=fine, background=(0.2, 0.3, 0.4), scene=scene,
+                                  frame=FRAMES[scene]))
+    model = build_model(mc, dim, bound_of(mc))
     weights = noisy(model.to_numpy(model.init_params(seed)), np.random.default_rng(seed))
     o, d = make_rays(dim, rays, seed)
     rng = np.random.default_rng(seed + 1)
@@ -210,4 +226,4 @@ def check_parity(field: str = "vanilla", dim: int = 2, rays: int = 64, samples: 
     values = {k: [float(np.abs(r[0][k] - v).max()) for r in runs.values()] for k, v in ref_vals.items()}
     grads = {k: [float(np.abs(r[1][k].ravel() - v.ravel()).max()) / (float(np.abs(v).max()) + 1e-12)
                  for r in runs.values()] for k, v in ref_grads.items()}
-    return Parity(list(runs), values, grads, finite_differences(field, dim, seed))
+    return Parity(list(runs), values, grads, finite_differences(field, dim, seed, scene))

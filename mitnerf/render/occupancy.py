@@ -9,7 +9,9 @@ ray's ``K`` occupied bins, every ``stride = ceil(K / N)``-th starts a group: one
 bin stands for the group's ``stride * dt`` (the last group: the bins left). Unused slots get ``delta = 0``;
 the count stays ``N``, so the step can be frozen, and the integral stops at each ray's last used slot. Only the
 bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked up: the
-others are empty, so the samples are those of every bin. Twin: :mod:`mitnerf.reference.render.occupancy`.
+others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene (:mod:`.space`) the
+grid covers the warped space the fields live in and the bins are even in the samples' spacing (:func:`.space.to_s`).
+Twin: :mod:`mitnerf.reference.render.occupancy`.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from drjit.auto.ad import Float, UInt32
 from ..settings import setting
 from ..rng import uniform
 from .samplers import Explicit, per_sample
+from .space import DRJIT, Space, to_s, to_t
 
 
 @dataclass
@@ -124,10 +127,22 @@ class OccupiedSampler:
     resolution: int
     seed: UInt32
     jitter: bool = True
+    space: Space = Space()
+
+    def _at(self, k: Float, near: Float, far: Float) -> Float:
+        """Distance of the point ``k`` (fractional) bins along ``[near, far]``."""
+        knee = self.space.knee
+        if knee is None:
+            return near + k * ((far - near) * (1.0 / self.bins))
+        lo, hi = (to_s(v, knee, dr.select) for v in (near, far))
+        return to_t(lo + k * ((hi - lo) * (1.0 / self.bins)), knee, dr.select)
 
     def _bin_occupied(self, origins, directions, ray, k, near, far):
-        t = near + (Float(k) + 0.5) * ((far - near) * (1.0 / self.bins))
-        x = [dr.gather(Float, o, ray) + t * dr.gather(Float, d, ray) for o, d in zip(origins, directions)]
+        t = self._at(Float(k) + 0.5, near, far)
+        d = [dr.gather(Float, di, ray) for di in directions]
+        x = [dr.gather(Float, o, ray) + t * di for o, di in zip(origins, d)]
+        if self.space.warped:
+            x = self.space.warp(x, d, DRJIT)[0]
         cell, inside = cell_index(x, self.bound, self.resolution)
         return inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
 
@@ -170,8 +185,13 @@ class OccupiedSampler:
             take = occ & (rank % stride == 0) & (j < self.n)
             u = uniform(self.seed, ray, k) if self.jitter else Float(0.5)
             group = dr.minimum(stride, K - rank)            # the last group may hold fewer bins
-            dr.scatter(t_out, near_r + (Float(k) + u) * dt, ray * self.n + j, take)
-            dr.scatter(d_out, Float(group) * dt, ray * self.n + j, take)
+            if self.space.knee is None:
+                t, delta = near_r + (Float(k) + u) * dt, Float(group) * dt
+            else:
+                t = self._at(Float(k) + u, near_r, far_r)
+                delta = self._at(Float(k + group), near_r, far_r) - self._at(Float(k), near_r, far_r)
+            dr.scatter(t_out, t, ray * self.n + j, take)
+            dr.scatter(d_out, delta, ray * self.n + j, take)
             return k + 1, rank + dr.select(occ, 1, 0)
 
         dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, r: k < end, place_body,

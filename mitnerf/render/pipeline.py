@@ -17,6 +17,7 @@ from ..settings import check, parse_color, setting
 from .integral import W_MIN, RenderOutput
 from .occupancy import OccupancyConfig, OccupiedSampler
 from .samplers import Stratified, importance_sample
+from .space import SCENES, Space, check_frame
 from .volume import METHODS, volume_render
 
 
@@ -49,6 +50,14 @@ class RenderConfig:
     min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
+    scene: str = setting("auto", choices=("auto", *SCENES), flag="--scene-type")
+    """What the data shows: an object in a box, a forward-facing capture (rendered in NDC, as NeRF's LLFF scenes)
+    or an unbounded one (a room around the object, in mip-NeRF 360's contracted space); auto: chosen from the
+    data's alpha and its cameras' layout when a fit starts, and said (``mitnerf.render.space``)."""
+    frame: dict = field(default_factory=dict)
+    """A forward-facing or unbounded scene's frame, derived from the cameras when a fit starts (the map from world
+    to the warped space, the fields' half-extent there, near, far and the samples' knee:
+    ``mitnerf.render.space.scene_frame``); empty: not derived yet."""
 
     def __post_init__(self):
         if isinstance(self.background, list):
@@ -63,11 +72,22 @@ class RenderConfig:
             raise ConfigError(f"--background needs 3 values (r, g, b), got {bg!r}")
         if isinstance(bg, str) and bg not in ("random", *BACKGROUNDS):
             raise ConfigError(f"--background must be white, black, random or r,g,b; got {bg[:40]!r}")
+        if self.frame:
+            check_frame(self.frame)
 
     def render_background(self) -> tuple:
         """The constant colour renders are composited over: ``random``'s is white, an unresolved one (None) black."""
         bg = self.background
         return BACKGROUNDS["white" if bg == "random" else bg or "black"] if not isinstance(bg, tuple) else bg
+
+    @property
+    def space(self) -> Space:
+        """The scene's space (a scene still ``auto`` renders as an object in a box)."""
+        if self.scene in ("auto", "object"):
+            return Space()
+        if not self.frame:
+            raise ConfigError(f"a {self.scene} scene needs its frame: fit derives it from the cameras")
+        return Space(self.scene, self.frame)
 
 
 def split_params(params: dict, prefix: str) -> dict:
@@ -134,18 +154,18 @@ class Model:
         :attr:`~.occupancy.OccupancyGrid.lookup`; ``background``: 3 arrays ``[n]``, a colour per ray (training), else
         the configuration's (:meth:`RenderConfig.render_background`). Renders without training end each ray's
         march where its transmittance falls to ``min_color_weight`` (:mod:`.integral`)."""
-        cfg = self.render_cfg
+        cfg, space = self.render_cfg, self.render_cfg.space
         bg = tuple(background) if background is not None else cfg.render_background()
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
         if occupancy is None or not cfg.occupancy.enabled:
-            sampler = Stratified(cfg.n_coarse, seed, jitter=training)
+            sampler = Stratified(cfg.n_coarse, seed, jitter=training, knee=space.knee)
         else:
             sampler = OccupiedSampler(*occupancy, cfg.n_coarse, cfg.occupancy.march_bins,
                                       self.fields["coarse"].bound, cfg.occupancy.resolution, seed,
-                                      jitter=training).build(origins, directions, near, far)
+                                      jitter=training, space=space).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
-                  stop=0.0 if training else cfg.min_color_weight)
+                  stop=0.0 if training else cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
                                           near, far, sampler, bg, weights=weights or cfg.n_fine > 0, **kw),
                   "fine": None}

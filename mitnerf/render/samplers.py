@@ -1,7 +1,8 @@
 """Where along each ray the field is sampled (Dr.Jit; twin: ``mitnerf.reference.render.samplers``).
 
 A sampler gives every ray ``N`` intervals ``(t_i, delta_i)``, sorted in ``[near, far)``; contiguous ones
-have ``delta_i = t_{i+1} - t_i`` with ``t_N = far``. ``interval(ray, i, near, far)`` answers one step (the
+have ``delta_i = t_{i+1} - t_i`` with ``t_N = far``. A ``knee`` spaces them evenly in :func:`.space.to_s` (linear in
+disparity past it: forward-facing and unbounded scenes) instead of in distance. ``interval(ray, i, near, far)`` answers one step (the
 fused integral calls it in its loop and its replay), ``points()`` all samples at once. Jitter is the
 counter-based hash ``uniform(seed, ray, i)`` of :mod:`mitnerf.rng`, identical in the twin.
 """
@@ -14,6 +15,7 @@ import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
 from ..rng import uniform
+from .space import to_s, to_t
 
 
 class _Sampler:
@@ -35,7 +37,8 @@ class _Sampler:
 
 @dataclass
 class Stratified(_Sampler):
-    """One sample per equal bin of [near, far], at the bin centre or jittered in it."""
+    """One sample per equal bin of [near, far] (of its image under :func:`.space.to_s` with a ``knee``), at the bin
+    centre or jittered in it."""
 
     n: int
     """Samples per ray."""
@@ -43,10 +46,16 @@ class Stratified(_Sampler):
     """Per-step seed (pass ``dr.opaque(UInt32, k)`` in frozen functions)."""
     jitter: bool = True
     """Jitter each sample inside its bin (training); centres otherwise."""
+    knee: float | None = None
+    """Distance past which the bins are even in disparity (:func:`.space.to_s`); None: even in distance."""
 
     def t(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> Float:
         u = uniform(self.seed, ray, i) if self.jitter else Float(0.5)
-        t = near + (Float(i) + u) * ((far - near) * (1.0 / self.n))
+        if self.knee is None:
+            t = near + (Float(i) + u) * ((far - near) * (1.0 / self.n))
+        else:
+            lo, hi = (to_s(v, self.knee, dr.select) for v in (near, far))
+            t = to_t(lo + (Float(i) + u) * ((hi - lo) * (1.0 / self.n)), self.knee, dr.select)
         return dr.select(i >= self.n, far, t)
 
 

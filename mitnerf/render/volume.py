@@ -3,6 +3,8 @@
 ``method='replay'`` (default) uses the custom operation of :mod:`.integral`; ``'autodiff'`` is the plain-AD
 check :func:`integrate_autodiff` (also for forward mode), which stores every per-sample intermediate.
 Non-traceable fields (tensor-mode MLPs) are evaluated on all samples first and read back by the same operation.
+In a forward-facing or unbounded scene the field sees the warped points, and its density is stretched into density
+per unit of world distance (:mod:`.space`).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import drjit as dr
 from drjit.auto.ad import Array3f, Float, UInt32
 
 from .integral import W_MIN, RenderOutput, VolumeIntegral, gathered_source
+from .space import DRJIT, Space
 
 METHODS = ("replay", "autodiff")
 
@@ -31,23 +34,33 @@ def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, 
 
 def volume_render(field, params: dict, origins: list, directions: list, near, far, sampler,
                   background=(0.0, 0.0, 0.0), *, method: str = "replay", weights: bool = False,
-                  input_grads: bool = False, w_min: float = W_MIN, stop: float = 0.0) -> RenderOutput:
+                  input_grads: bool = False, w_min: float = W_MIN, stop: float = 0.0,
+                  space: Space = Space()) -> RenderOutput:
     """Render rays ``origins, directions`` (D arrays ``[n_rays]``; unit directions) through ``field``;
     ``near, far``: per-ray arrays or scalars. ``weights=True`` also returns the (differentiable) per-sample
     weights; ``input_grads=True`` makes origins and directions differentiable through a traceable field. Samples
     of weight at most ``w_min`` add no colour (:mod:`.integral`; 0: every sample's colour counts); ``stop`` > 0 ends
-    a ray's march where its transmittance falls to it (renders without gradients)."""
+    a ray's march where its transmittance falls to it (renders without gradients). ``space``: the scene's warp
+    (:mod:`.space`)."""
     near, far = Float(near), Float(far)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+
+    def query(p, x, d, keep=None):          # the field at world points: warped, its density stretched
+        if not space.warped:
+            return field.query(p, x, d, keep)
+        x, stretch = space.warp(x, d, DRJIT)
+        sigma, rgb = field.query(p, x, d, None if keep is None else (lambda s: keep(s * stretch)))
+        return sigma * stretch, rgb
+
     if method == "replay" and field.traceable:
         def source(p, x, d, index, keep=None):
-            return field.query(p, x, d, keep if field.skips_color else None)
+            return query(p, x, d, keep if field.skips_color else None)
     else:
         t, delta = sampler.points(dr.width(origins[0]), near, far)
         ray = dr.arange(UInt32, dr.width(t)) // sampler.n                   # of every sample (ray-major)
         d = [dr.gather(Float, di, ray) for di in directions]
-        sigma, rgb = field.query(params, [dr.gather(Float, oi, ray) + t * di for oi, di in zip(origins, d)], d)
+        sigma, rgb = query(params, [dr.gather(Float, oi, ray) + t * di for oi, di in zip(origins, d)], d)
         if method == "autodiff":
             out = integrate_autodiff(sigma, rgb, t, delta, sampler.n, background, w_min)
             return out if weights else replace(out, weights=None)

@@ -6,8 +6,11 @@ the real run; the score is validation PSNR. The chosen size is the smallest cand
 the best probe, or, with ``target_psnr``, the first to reach it. Then half the samples per ray are tried, and
 view dependence, the view harmonics' degree (down to 1) and each regulariser are switched the other way from the
 recipe, one at a time: a switch is taken only where it gains ``vd_gain`` / ``reg_gain`` dB of validation PSNR, so
-the recipe's tuned setting stands where a few validation views cannot tell the two apart. Every trial and every
-decision's reason is kept."""
+the recipe's tuned setting stands where a few validation views cannot tell the two apart. The scene is switched
+first, the same way (:data:`OTHER_SCENE`: a forward-facing capture tried as unbounded, an unbounded one as an object
+in a box). Data without validation views (real captures hold out only test views) lends the probes every 8th
+training view from the 5th (:func:`with_validation`); the chosen recipe then trains on all of them. Every trial and
+every decision's reason is kept."""
 
 from __future__ import annotations
 
@@ -16,10 +19,15 @@ import math
 import time
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from ..data.dataset import Dataset
 from ..fields import FIELDS, field_config
 from .fit import fit
 from .recipes import LADDER, Recipe, recipe_for
+
+OTHER_SCENE = {"forward": "unbounded", "unbounded": "object"}
+"""The scene ``fit --auto`` tries against each (an object with alpha has no other)."""
 
 @dataclass
 class AutoConfig:
@@ -50,6 +58,10 @@ class AutoConfig:
     """Minimum validation-PSNR gain (dB) for switching a regulariser the other way from the recipe."""
     seed: int = 0
     """Seed of every probe."""
+    scene: str = "object"
+    """The scene the data shows (``mitnerf.render.space.pick_scene``), whose recipes the probes start from."""
+    scene_gain: float = 0.2
+    """Minimum validation-PSNR gain (dB) for switching the scene to :data:`OTHER_SCENE`'s."""
 
 
 @dataclass
@@ -82,13 +94,27 @@ def regulariser_weights(cfg: AutoConfig, dim: int) -> list[tuple[str, float]]:
 
 
 def probe_seconds(cfg: AutoConfig, dim: int) -> float:
-    return cfg.probe_time or recipe_for(None, dim).train.time_budget
+    return cfg.probe_time or recipe_for(None, dim, cfg.scene).train.time_budget
+
+
+def with_validation(dataset: Dataset) -> tuple[Dataset, str]:
+    """``dataset`` with a validation split, and what was done: as it is where it has one, else with every 8th
+    training view from the 5th (at least one) moved to validation."""
+    if dataset.splits.get("val"):
+        return dataset, ""
+    n = len(dataset["train"])
+    held = np.arange(4 % n, n, 8)
+    splits = dict(dataset.splits, train=dataset["train"].subset(np.setdiff1d(np.arange(n), held)),
+                  val=dataset["train"].subset(held))
+    return Dataset(splits, dataset.near, dataset.far, dict(dataset.meta)), (
+        f"the data has no validation views: the probes validate on training views {', '.join(map(str, held))} "
+        f"(every 8th from the 5th) and train on the other {n - len(held)}; the chosen recipe trains on all {n}")
 
 
 def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> Recipe:
     """The family's recipe (its view dependence and losses included) with the candidate's settings, trained for
     :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on every validation view."""
-    base = recipe_for(family, dataset.dim)
+    base = recipe_for(family, dataset.dim, cfg.scene)
     kw = dict(args, seed=cfg.seed, val_every=0, val_views=10 ** 6, progress=False)
     if cfg.steps:
         return base.at_steps(cfg.steps, **kw)
@@ -135,7 +161,8 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
     cfg = cfg or AutoConfig()
     t0 = time.perf_counter()
     spent = lambda: time.perf_counter() - t0 > cfg.time_budget
-    cands = sorted((c for c in LADDER[dataset.dim] if c[0] in cfg.families),
+    dataset, held = with_validation(dataset)
+    cands = sorted((c for c in LADDER.get(cfg.scene, LADDER[dataset.dim]) if c[0] in cfg.families),
                    key=lambda c: final_params(*c, dataset.dim))
     trials: list[Trial] = []
 
@@ -155,7 +182,16 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
         if cfg.target_psnr is not None and sized[-1].val_psnr >= cfg.target_psnr:
             break
     best, reached, why = pick_size(sized, cfg.tolerance, cfg.target_psnr)
-    reasons = [f"{best.recipe.model.field} with {best.params} parameters ({best.val_psnr:.2f} dB) is {why}"]
+    reasons = [held] * bool(held) + [f"{best.recipe.model.field} with {best.params} parameters "
+                                     f"({best.val_psnr:.2f} dB) is {why}"]
+    other = OTHER_SCENE.get(cfg.scene)
+    if other is not None and not spent():
+        t = trial(best.recipe.override(scene=other), "scene")
+        gain = t.val_psnr - best.val_psnr
+        take = gain >= cfg.scene_gain
+        reasons.append(f"the {cfg.scene} scene {'switched to' if take else 'kept against'} {other}: {other} gains "
+                       f"{gain:+.2f} dB validation PSNR (needs {cfg.scene_gain} dB)")
+        best = t if take else best
     samples = best.recipe.model.render.n_coarse // 2          # fewer samples: faster steps, more of them
     if samples >= 16 and not spent():
         t = trial(best.recipe.override(n_coarse=samples), "samples")
@@ -196,10 +232,12 @@ def choose_recipe(dataset: Dataset, cfg: AutoConfig | None = None, settings: dic
     its family's when the probes count steps."""
     settings = dict(settings or {})
     cfg = copy.copy(cfg or AutoConfig())
+    settings.pop("scene", None)                     # cfg.scene: the scene the search starts from
     if settings.get("time_budget") and not cfg.probe_time:
         cfg.probe_time = float(settings["time_budget"])
     result = auto_size(dataset, cfg, say)
-    base = recipe_for(result.recipe.model.field, dataset.dim)   # the winning probe, less what only probes set
+    won = result.recipe.model                     # the winning probe, less what only probes set
+    base = recipe_for(won.field, dataset.dim, won.render.scene)
     own = base.train
     chosen = result.recipe.override(val_every=own.val_every, val_views=own.val_views, seed=own.seed,
                                     progress=own.progress,

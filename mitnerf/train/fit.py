@@ -14,6 +14,7 @@ from ..data.dataset import Dataset
 from ..data.rays import BACKGROUNDS, background_name
 from ..errors import ConfigError, DataError
 from ..fields import CONDITIONED
+from ..render.space import pick_scene, scene_frame
 from .backend import Backend
 from .engines import make_backend
 from .evaluate import RunRecord, classify, evaluate, render_split
@@ -90,9 +91,13 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     resolve_background(recipe, dataset)
     r = recipe.model.render
     bg = r.render_background()
-    be = make_backend(backend, recipe.model, cfg, dataset.dim, dataset.bound, dataset.near, dataset.far)
+    be = make_backend(backend, recipe.model, cfg, dataset.dim, *settle_scene(recipe, dataset))
     be.set_data(dataset["train"].rays("random" if r.background == "random" else bg, **cfg.ray_args()))
     run = Run(be, recipe, dict(dataset.meta))
+    if recipe.model.render.scene != "object":          # the camera path a video follows
+        c = dataset["train"].cameras
+        run.dataset_meta["cameras"] = {"poses": c.poses.tolist(), "focal": [float(c.fx[0]), float(c.fy[0])],
+                                       "size": [c.width, c.height]}
     if resume is not None:
         be.set_weights(resume["weights"])
         be.load_optimizer_state(resume["optimizer"])
@@ -135,6 +140,24 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
         run.notes.append(f"kept the checkpoint of step {run.best['step']} (validation {run.best['val_psnr']:.2f} dB; "
                          f"the last step, {run.state.step}, had {last:.2f} dB)")
     return run
+
+
+def settle_scene(recipe: Recipe, dataset: Dataset) -> tuple[float, float, float]:
+    """Settle the recipe's scene for ``dataset`` (``auto``: :func:`~mitnerf.render.space.pick_scene`) and the frame of
+    a forward-facing or unbounded one (kept when the recipe has it: a resumed run); returns the backend's ``bound,
+    near, far``: the dataset's for an object, the frame's otherwise."""
+    r = recipe.model.render
+    if r.scene == "auto":
+        r.scene = pick_scene(dataset)[0]
+    if r.scene == "object":
+        return dataset.bound, dataset.near, dataset.far
+    if dataset.dim != 3:
+        raise ConfigError(f"--scene-type {r.scene} needs 3D data; 2D data is an object in a box (--scene-type object)")
+    if recipe.train.solid_weight > 0 and any(s.depth is not None for s in dataset.splits.values()):
+        raise ConfigError(f"the solid loss needs an object in a box, not a {r.scene} scene: pass --solid-weight 0 "
+                          "or --scene-type object")
+    r.frame = r.frame or scene_frame(dataset, r.scene)
+    return r.frame["bound"], r.frame["near"], r.frame["far"]
 
 
 def keeps_best(best: float, last: float, margin: float) -> bool:

@@ -173,9 +173,11 @@ class Recipe:
         return getattr(self.model.field_config(self.dim), key)
 
     def essence(self) -> dict:
-        """The settings that change what is trained (not progress bars, thread counts or test views); field settings
-        with their defaults filled in, so a setting written at its default value changes nothing."""
+        """The settings that change what is trained (not progress bars, thread counts or test views, nor the scene, which the
+        data decides like the box); field settings with their defaults filled in, so a setting written at its
+        default value changes nothing."""
         d = self.to_dict()
+        d["model"]["render"] = {k: v for k, v in d["model"]["render"].items() if k not in ("scene", "frame")}
         full = dataclasses.asdict(self.model.field_config(self.dim))
         d["model"]["field_args"] = {k: v for k, v in full.items() if k != "dim"}
         d["train"] = {k: v for k, v in d["train"].items() if k not in ("progress", "threads", "test_views")}
@@ -217,6 +219,8 @@ PURPOSE = {
     "vanilla-3d": "NeRF's MLP with its fine pass: the reference architecture",
     "hashgrid-3d": "instant-ngp's hash grid with tiny networks",
     "pixelnerf-2d": "2D pixelNeRF, trained across scenes by `mitnerf experiment pixelnerf`",
+    "grid-forward": "the default for forward-facing captures (LLFF's fern): a grid in NDC",
+    "grid-unbounded": "the default for captures of an object in a room (instant-ngp's fox): a grid in contracted space",
 }
 
 
@@ -288,11 +292,25 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(n_coarse=48, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
        dict(time_budget=60.0, lr=0.01, lr_final=0.001, batch_rays=2048, **_BUDGET),
        "hash grid 12 levels, occupancy grid, 60 s"),
+    _r("grid-forward", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000), tv_weight=1e-4,
+                                       view_dependent=True, tv_color_weight=3e-4),
+       dict(n_coarse=64, scene="forward"),
+       dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
+            **_BUDGET),
+       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity, 600 s"),
+    _r("grid-unbounded", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000),
+                                         tv_weight=1e-4, view_dependent=True, tv_color_weight=3e-4),
+       dict(n_coarse=64, scene="unbounded", occupancy=dict(enabled=True, resolution=64, march_bins=512)),
+       dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
+            **_BUDGET),
+       "grid-3d's grid in mip-NeRF 360's contracted space, samples linear then even in disparity, occupancy grid, "
+       "600 s"),
     _r("pixelnerf-2d", 2, "pixelnerf", {}, dict(n_coarse=32),
        dict(iters=8000, time_budget=150.0, lr=2e-3, lr_final=2e-4, batch_rays=32, val_every=0),
        "2D pixelNeRF trained across scenes (`mitnerf experiment pixelnerf`): 32 rays x 32 samples per step"),
 ]}
-DEFAULT = {2: "grid-2d", 3: "grid-3d"}
+DEFAULT = {2: "grid-2d", 3: "grid-3d", "forward": "grid-forward", "unbounded": "grid-unbounded"}
+"""The default recipe for data of each dimension, and for forward-facing and unbounded captures (``--scene``)."""
 
 # The sizes the searches try: each a family and settings on top of the family's recipe.
 LADDER = {
@@ -323,8 +341,16 @@ def get_recipe(name: str) -> Recipe:
     return RECIPES[name].copy()
 
 
-def recipe_for(field: str | None, dim: int) -> Recipe:
-    """The tuned recipe of ``field`` (the default one when None) for datasets of ``dim``."""
+def recipe_for(field: str | None, dim: int, scene: str = "object") -> Recipe:
+    """The tuned recipe of ``field`` (the default one when None) for datasets of ``dim`` showing ``scene``: a
+    forward-facing or unbounded scene's own recipe where the family has one, else its 3D recipe in that scene."""
+    if scene in ("forward", "unbounded"):
+        name = DEFAULT[scene] if field is None else f"{field}-{scene}"
+        if name in RECIPES:
+            return get_recipe(name)
+        out = recipe_for(field, dim)
+        out.model.render.scene = scene
+        return out
     if field is None:
         return get_recipe(DEFAULT[dim])
     name = f"{field}-{dim}d"

@@ -1,5 +1,6 @@
-"""Turn-table videos of a trained 3D field: cameras circling ``center`` once (360 degrees about the z axis through
-it, at a fixed ``elevation`` and ``radius``, looking at ``center``), colour and depth frames, GIF and MP4 files.
+"""Videos of a trained 3D field: a turn-table orbit (cameras circling ``center`` once, 360 degrees about the z axis
+through it, at a fixed ``elevation`` and ``radius``, looking at ``center``) or a path that fits a capture
+(:mod:`.paths`), colour and depth frames, GIF and MP4 files.
 Depth is ``depth / opacity`` (``inf``: no surface), coloured on one ``near, far`` range for the whole video.
 Frames per second count rendering only (not writing files)."""
 
@@ -17,17 +18,23 @@ from ..data.color import to_uint8
 from ..data.rig import look_at_3d
 from ..errors import MitnerfError
 from ..settings import check, setting
+from .paths import PATHS
 from .strips import colorize_depth
 
 
 @dataclass
 class OrbitConfig:
-    """A 360 degree turn-table orbit around ``center``."""
+    """A video's camera path: a 360 degree turn-table orbit around ``center``, or a path that fits the capture."""
 
+    path: str = setting("auto", choices=("auto", *PATHS), flag="--path")
+    """The camera path: an orbit around the object, a spiral in front of a forward-facing capture (as LLFF renders)
+    or the capture's own path (its training cameras, interpolated); auto: the one that fits the scene the run was
+    fitted in."""
     n_frames: int = setting(120, lo=1, hi=100_000, flag="--frames")
     """Frames in one turn (120 at 30 fps: a 4 s turn)."""
     resolution: int = setting(100, lo=2, hi=4096, flag="--image-size", unit="pixels")
-    """Frame width and height in pixels."""
+    """Frame width in pixels (and height: an orbit's frames are square, a capture's path and spiral keep its
+    aspect)."""
     elevation: float = setting(25.0, lo=-89.8999, hi=89.8999, flag="--elevation", unit="degrees")
     """Camera height above the horizontal plane through ``center``, in degrees (|e| < 89.9)."""
     radius: float = setting(3.5, lo=0, above=True, hi=1e4, flag="--radius", unit="world units")
@@ -168,9 +175,10 @@ class OrbitVideo:
 
 
 def orbit_video(backend, cfg: OrbitConfig, out: str | Path, background=(1.0, 1.0, 1.0),
-                formats=("gif", "mp4"), batch_rays: int = 1 << 18, progress: bool = True) -> OrbitVideo:
-    """Render the orbit and write ``color.<fmt>`` and ``depth.<fmt>`` into ``out``."""
-    frames = render_orbit(backend, orbit_cameras(cfg), batch_rays, progress=progress)
+                formats=("gif", "mp4"), batch_rays: int = 1 << 18, progress: bool = True,
+                cameras: Cameras | None = None) -> OrbitVideo:
+    """Render the orbit (or ``cameras``, another path) and write ``color.<fmt>`` and ``depth.<fmt>`` into ``out``."""
+    frames = render_orbit(backend, orbit_cameras(cfg) if cameras is None else cameras, batch_rays, progress=progress)
     t0 = time.perf_counter()
     videos = {"color": to_uint8(frames.rgb), "depth": to_uint8(depth_frames(frames.depth, background))}
     paths = {f"{kind}_{fmt}": write_video(Path(out) / f"{kind}.{fmt}", v, cfg.fps) for fmt in formats

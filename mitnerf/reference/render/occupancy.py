@@ -6,8 +6,10 @@ import numpy as np
 import torch
 
 from ...render.occupancy import OccupancyConfig
+from ...render.space import Space, to_s, to_t
 from ...rng import uniform_np
 from .samplers import Explicit, column, offsets
+from .volume import warp
 
 
 def cell_index(x: torch.Tensor, bound: float, res: int):
@@ -53,14 +55,20 @@ class OccupancyGrid:
         self.occupied = torch.as_tensor(np.asarray(state["occupied"], np.float32))
 
 
-def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int, seed: int, jitter: bool) -> Explicit:
+def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int, seed: int, jitter: bool,
+                     space: Space = Space()) -> Explicit:
     """Twin of ``OccupiedSampler.build``: ``origins, directions [n_rays, D]``."""
     bins = grid.cfg.march_bins
     n_rays = origins.shape[0]
     near, far = column(near).expand(n_rays, 1), column(far).expand(n_rays, 1)
     dt = (far - near) * (1.0 / bins)
-    t_mid = near + (torch.arange(bins, dtype=torch.float32) + 0.5) * dt                      # [n_rays, M]
+    if space.knee is not None:                 # bins even in the spacing (``_at`` of the Dr.Jit sampler)
+        lo, hi = (to_s(v, space.knee, torch.where) for v in (near, far))
+        at = lambda k, lo, hi: to_t(lo + k * ((hi - lo) * (1.0 / bins)), space.knee, torch.where)  # noqa: E731
+    mid = torch.arange(bins, dtype=torch.float32) + 0.5
+    t_mid = near + mid * dt if space.knee is None else at(mid, lo, hi)                       # [n_rays, M]
     x = origins[:, None, :] + t_mid[..., None] * directions[:, None, :]
+    x = warp(space, x, directions[:, None, :].expand_as(x))[0]
     cell, inside = cell_index(x.reshape(-1, origins.shape[1]), grid.bound, grid.cfg.resolution)
     occ = (inside & (grid.occupied[cell] > 0.5)).reshape(n_rays, bins)
     K = occ.sum(1, keepdim=True)
@@ -70,7 +78,12 @@ def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int
     r_idx, k_idx = torch.nonzero(occ & (rank % stride == 0) & (j < n), as_tuple=True)
     u = offsets(seed, n_rays, bins, jitter)
     t_out, d_out = far.expand(n_rays, n).clone(), torch.zeros(n_rays, n)
-    slot = j[r_idx, k_idx]
-    t_out[r_idx, slot] = near[r_idx, 0] + (k_idx.float() + u[r_idx, k_idx]) * dt[r_idx, 0]
-    d_out[r_idx, slot] = torch.minimum(stride, K - rank)[r_idx, k_idx].float() * dt[r_idx, 0]
+    slot, group = j[r_idx, k_idx], torch.minimum(stride, K - rank)[r_idx, k_idx].float()
+    if space.knee is None:
+        t_out[r_idx, slot] = near[r_idx, 0] + (k_idx.float() + u[r_idx, k_idx]) * dt[r_idx, 0]
+        d_out[r_idx, slot] = group * dt[r_idx, 0]
+    else:
+        ends = (lo[r_idx, 0], hi[r_idx, 0])
+        t_out[r_idx, slot] = at(k_idx.float() + u[r_idx, k_idx], *ends)
+        d_out[r_idx, slot] = at(k_idx.float() + group, *ends) - at(k_idx.float(), *ends)
     return Explicit(t_out, n, d_out)

@@ -46,20 +46,21 @@ class Model(nn.Module):
 
     def render(self, origins, directions, near, far, seed: int, training: bool, weights: bool = False,
                occupancy=None, background=None) -> dict:
-        cfg, seed = self.render_cfg, int(np.uint32(seed))
+        cfg, seed, space = self.render_cfg, int(np.uint32(seed)), self.render_cfg.space
         bg = cfg.render_background() if background is None else background
         n = origins.shape[0]
         if occupancy is not None and cfg.occupancy.enabled:
-            sampler = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse, seed, training)
+            sampler = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse, seed, training, space)
         else:
-            sampler = Stratified(cfg.n_coarse, seed, jitter=training)
+            sampler = Stratified(cfg.n_coarse, seed, jitter=training, knee=space.knee)
+        kw = dict(w_min=cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], origins, directions, near, far, sampler,
-                                          bg, weights=True, w_min=cfg.min_color_weight), "fine": None}
+                                          bg, weights=True, **kw), "fine": None}
         if cfg.n_fine > 0:
             t, delta = sampler.points(n, near, far)
             sampler = importance_sample(t, delta, result["coarse"].weights, cfg.n_fine, seed, training)
             result["fine"] = volume_render(self.fields[self.final_field()], origins, directions, near, far, sampler,
-                                           bg, weights=weights, w_min=cfg.min_color_weight)
+                                           bg, weights=weights, **kw)
         elif not weights:
             result["coarse"] = replace(result["coarse"], weights=None)
         if weights:

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from ...render.space import to_s, to_t
 from ...rng import uniform_np
 
 
@@ -29,12 +30,18 @@ class Stratified:
     n: int
     seed: int
     jitter: bool = True
+    knee: float | None = None
 
     def points(self, n_rays: int, near: torch.Tensor, far: torch.Tensor):
         """``t, delta [n_rays, n]`` (``near, far``: ``[n_rays]`` or scalars)."""
         near, far = column(near), column(far)
         i = torch.arange(self.n + 1, dtype=torch.float32)
-        t = near + (i + offsets(self.seed, n_rays, self.n + 1, self.jitter)) * ((far - near) * (1.0 / self.n))
+        u = i + offsets(self.seed, n_rays, self.n + 1, self.jitter)
+        if self.knee is None:
+            t = near + u * ((far - near) * (1.0 / self.n))
+        else:
+            lo, hi = (to_s(v, self.knee, torch.where) for v in (near, far))
+            t = to_t(lo + u * ((hi - lo) * (1.0 / self.n)), self.knee, torch.where)
         t[:, self.n:] = far.expand(n_rays, 1)
         return t[:, :-1], t[:, 1:] - t[:, :-1]
 

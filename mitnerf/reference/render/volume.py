@@ -7,6 +7,9 @@ from dataclasses import dataclass, replace
 import torch
 
 from ...render.integral import W_MIN
+from ...render.space import Ops, Space
+
+TORCH = Ops(torch.sqrt, lambda a, c: torch.clamp(a, max=c), torch.where)
 
 
 @dataclass
@@ -29,13 +32,24 @@ def integrate(sigma, rgb, t, delta, background, w_min: float = W_MIN) -> RenderO
     return RenderOutput(C, (w * t).sum(1), 1.0 - T_end, w)
 
 
+def warp(space: Space, x: torch.Tensor, d: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """``x, d [..., 3]`` -> the field's points ``[..., 3]`` and the density stretch ``[...]`` (None: no warp)."""
+    if not space.warped:
+        return x, None
+    xw, stretch = space.warp(list(x.unbind(-1)), list(d.unbind(-1)), TORCH)
+    return torch.stack(xw, -1), stretch
+
+
 def volume_render(field, origins, directions, near, far, sampler, background=(0.0, 0.0, 0.0),
-                  weights: bool = False, w_min: float = W_MIN) -> RenderOutput:
+                  weights: bool = False, w_min: float = W_MIN, space: Space = Space()) -> RenderOutput:
     """``origins, directions [n_rays, D]`` -> :class:`RenderOutput`."""
     n, D = origins.shape
     t, delta = sampler.points(n, near, far)
     N = t.shape[1]
     x = origins[:, None, :] + t[..., None] * directions[:, None, :]
-    sigma, rgb = field.query(x.reshape(-1, D), directions[:, None, :].expand(n, N, D).reshape(-1, D))
+    dirs = directions[:, None, :].expand(n, N, D)
+    x, stretch = warp(space, x, dirs)
+    sigma, rgb = field.query(x.reshape(-1, D), dirs.reshape(-1, D))
+    sigma = sigma if stretch is None else sigma * stretch.reshape(-1)
     out = integrate(sigma.reshape(n, N), rgb.reshape(n, N, 3), t, delta, background, w_min)
     return out if weights else replace(out, weights=None)
