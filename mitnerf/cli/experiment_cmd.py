@@ -89,7 +89,12 @@ def run_experiment(args) -> int:
         where = out / n if args.name == "all" else out
         where.mkdir(exist_ok=True)
         t0 = time.perf_counter()
-        rows = EXPERIMENTS[n].run(cfgs[n], where)
+        try:
+            rows = EXPERIMENTS[n].run(cfgs[n], where)
+        except KeyboardInterrupt as exc:
+            done = names[:names.index(n)]
+            exc.note = f"; finished and kept in {out}: {', '.join(done)}" if done else ""
+            raise
         if not args.quick and n in REPRODUCE:
             record(n, cfgs[n], rows, time.perf_counter() - t0, command)
         print(f"wrote {where / 'report.md' if (where / 'report.md').exists() else where}", flush=True)
