@@ -26,7 +26,7 @@ def test_valid_inputs_in_unicode_paths_with_spaces_work(base):
         assert rc == 0 and err.count("error") == 0 and (out / "manifest.json").is_file(), err
         tiny = t / "tïny nerf ✓.npz"
         shutil.copy(base["tiny"], tiny)
-        rc, stdout, err, _ = run_main(["fit", "--data", tiny, "--iters", "1", "--no-figures"])
+        rc, stdout, err, _ = run_main(["fit", "--data", tiny, "--iters", "1", "--no-figures", "--out", t / "tïny ✓ run"])
         assert rc == 0, err
         (t / "szène ✓.xml").write_text(XML.format(ply=base["ply"]))
         (t / "öutline ✓.json").write_text(json.dumps({"name": "fuzz ✓", "points": ring_points(6)}))
