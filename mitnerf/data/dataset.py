@@ -145,8 +145,6 @@ class Split:
         cat = lambda name: (None if getattr(parts[0], name) is None
                             else np.concatenate([getattr(p, name) for p in parts]))
         cams = Cameras.concatenate([p.cameras for p in parts])
-        return cls(cams, cat("color"), cat("alpha"), cat("depth"), cat("mask"), cat("linear"))
-        cams = Cameras.concatenate([p.cameras for p in parts])
         return cls(cams, cat("_color"), cat("_alpha"), cat("depth"), cat("mask"), cat("linear"))
 
     def target(self, background=(0.0, 0.0, 0.0), views=None) -> np.ndarray:
