@@ -46,7 +46,9 @@ def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path:
     budget = BUDGETS[name](cfg) if name in BUDGETS else ""
     slim = [{k: v for k, v in r.items() if (k in KEEP or not isinstance(v, float))
              and k not in ("recipe", "params", "render_time")} for r in rows]
-    return record_result(f"experiment/{name}", {"rows": slim, "wall_s": round(seconds, 1)},
+    data = getattr(cfg, "data", None)                           # the experiment on a user's file: its own key
+    return record_result(f"experiment/{name}" + (f"/{Path(data).stem}" if data else ""),
+                         {"rows": slim, "wall_s": round(seconds, 1)},
                          f"{len(rows)} runs in {seconds / 60:.0f} min; " + ("; ".join(verdicts) or "no claims"),
                          command, path=path, budget=budget, config=dataclasses.asdict(cfg))
 
@@ -87,6 +89,12 @@ def document(results: dict, figure_name: str | None, command: str) -> str:
             parts += ["### Table 2, row for row\n", "Their Table 1 combinations at 2000 iterations with their "
                       "Table 2 PSNR, beside ours on each object (the same wall-clock budget per row, and the same "
                       "2000 steps where the budget affords them).\n", *tables(rows_of(results, "window-shop") or [])]
+            for key in sorted(k for k in results if k.startswith("experiment/window-shop/")):
+                e = results[key]
+                parts += [f"### Table 2 on the report's own data: {key.rsplit('/', 1)[1]}\n",
+                          f"`{e['command']}` ({e.get('budget', '')}; {machine_line(e['machine'])}, {e['date']}). "
+                          "Trained on the file's first views, scored by the report's protocol (view 101) and on "
+                          "the held-out views.\n", tables(e["values"]["rows"])[0]]
     return "\n".join(parts)
 
 
