@@ -19,8 +19,12 @@ from ..train.recipes import Recipe
 
 def train_row(dataset: Dataset, recipe: Recipe, labels: dict, backend: str = "drjit",
               geometry_metrics: bool = True) -> tuple[dict, object, object]:
-    """Fit and evaluate one configuration; -> (row, run, record). Never raises for a failed run."""
-    run, rec = fit_and_evaluate(dataset, recipe, backend, geometry_metrics=geometry_metrics)
+    """Fit and evaluate one configuration, with a progress bar and a line naming it and its result; -> (row, run,
+    record). Never raises for a failed run."""
+    name = ", ".join(f"{k} {v}" for k, v in labels.items())
+    print(f"{name}: training {recipe.name}", flush=True)
+    run, rec = fit_and_evaluate(dataset, recipe, backend, geometry_metrics=geometry_metrics, progress=True)
+    print(f"{name}: {rec.line()}", flush=True)
     return {**labels, **rec.row()}, run, rec
 
 

@@ -167,11 +167,12 @@ def keeps_best(best: float, last: float, margin: float) -> bool:
 
 
 def fit_and_evaluate(dataset: Dataset, recipe: Recipe, backend: str = "drjit", split: str = "test",
-                     geometry_metrics: bool = True) -> tuple[Run, RunRecord]:
+                     geometry_metrics: bool = True, progress: bool = False) -> tuple[Run, RunRecord]:
     """Fit and evaluate, never raising for a run that fails: a NaN or a collapse comes back
-    as the record's status (with the reason), evaluated on the weights that were kept."""
+    as the record's status (with the reason), evaluated on the weights that were kept; ``progress``: the training's
+    progress bar."""
     try:
-        run = fit(dataset, recipe, backend, progress=False)
+        run = fit(dataset, recipe, backend, progress=progress)
         return run, run.record(dataset, split, geometry_metrics=geometry_metrics)
     except TrainingFailed as exc:
         rec = exc.run.record(dataset, split, geometry_metrics=geometry_metrics)
