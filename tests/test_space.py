@@ -184,3 +184,26 @@ def test_fit_says_the_scene_it_picked_and_video_follows_it(vase_small, tmp_path,
         assert read_video(tmp_path / f"{data}-video" / "color.gif").shape[1] == (6 if data == "fwd" else 8)  # 4:3
     main(["fit", "--data", str(tmp_path / "fwd"), "--scene-type", "object", "--out", str(tmp_path / "obj"), *quick])
     assert "scene: an object in a box (--scene-type object; --scene-type chooses)" in capsys.readouterr().out
+
+
+def test_the_occupancy_sampler_follows_rays_out_of_the_world_box_in_contracted_space():
+    """Contracted space: every world point lands inside the ball of radius 2, so a fresh grid (all cells occupied)
+    over [-2, 2]^3 holds every bin of a ray from the origin to distance 100, though the ray leaves the world box
+    [-2, 2]^3 at distance 2 (16 bins even in the spacing past the knee at 1: all 16 occupied, 8 samples of two
+    bins each), and the Dr.Jit sampler places the twin's samples."""
+    import torch
+    from drjit.auto.ad import Float, UInt32
+
+    from mitnerf.reference.render.occupancy import OccupancyGrid as TwinGrid, occupied_samples
+    from mitnerf.render.occupancy import OccupancyConfig, OccupancyGrid, OccupiedSampler
+
+    space = Space("unbounded", dict(matrix=np.eye(3, 4).tolist(), bound=2.0, near=0.5, far=100.0, knee=1.0))
+    cfg = OccupancyConfig(enabled=True, resolution=4, march_bins=16)
+    grid = OccupancyGrid(cfg, 3, bound=2.0)
+    o, d = [Float([0.0]), Float([0.0]), Float([0.0])], [Float([1.0]), Float([0.0]), Float([0.0])]
+    got = OccupiedSampler(*grid.lookup, 8, 16, 2.0, 4, UInt32(3), jitter=False, space=space).build(o, d, 0.5, 100.0)
+    assert np.asarray(got.count).tolist() == [8]
+    twin = occupied_samples(TwinGrid(cfg, 3, 2.0), torch.zeros(1, 3), torch.tensor([[1.0, 0.0, 0.0]]), 0.5, 100.0,
+                            8, 3, False, space)
+    np.testing.assert_allclose(np.asarray(got.t_flat), twin.t.numpy().ravel(), rtol=1e-5)
+    assert np.asarray(got.delta_flat).sum() == pytest.approx(99.5, rel=1e-4)   # far - near: the whole ray

@@ -10,7 +10,8 @@ bin stands for the group's ``stride * dt`` (the last group: the bins left). Unus
 the count stays ``N``, so the step can be frozen, and the integral stops at each ray's last used slot. Only the
 bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked up: the
 others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene (:mod:`.space`) the
-grid covers the warped space the fields live in and the bins are even in the samples' spacing (:func:`.space.to_s`).
+grid covers the warped space the fields live in, the bins are even in the samples' spacing (:func:`.space.to_s`) and
+every bin is looked up (rays curve there: no box bounds them).
 Twin: :mod:`mitnerf.reference.render.occupancy`.
 """
 
@@ -166,7 +167,10 @@ class OccupiedSampler:
         ray = dr.arange(UInt32, n_rays)
         near_r, far_r = per_sample(Float(near), ray), per_sample(Float(far), ray)
         dt = (far_r - near_r) * (1.0 / self.bins)
-        first, end = self._bins(origins, directions, near_r, dt)
+        if self.space.warped:                     # rays curve in the warped space: no world box to clip them to
+            first, end = dr.zeros(UInt32, n_rays), dr.full(UInt32, self.bins, n_rays)
+        else:
+            first, end = self._bins(origins, directions, near_r, dt)
 
         def count_body(k, count):
             occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
