@@ -26,6 +26,8 @@ from mitnerf.train.config import TrainConfig
 ROOT = Path(__file__).resolve().parents[1]
 CAPTURES = {"fern": ("llff/fern", ["--downscale", "8"]), "fox": ("instant_ngp/fox", [])}
 """Each capture's folder under the data folder, and the flags that select its views."""
+ANCHORS = {"fern": [("NeRF", "25.17", "about a day, 1008 x 756", "GPU"), ("Plenoxels", "25.46", "1008 x 756", "GPU")]}
+"""Published test PSNR on LLFF's protocol (every 8th view held out): (method, dB, training, GPU)."""
 
 
 def fit(name: str, data: Path, budget: float, out: Path) -> dict:

@@ -12,8 +12,8 @@ produced it). This script renders it:
 * ``REPRODUCTION.md`` (:mod:`mitnerf.experiments.reproduction`: every claim of the two source
   reports beside our figure, from the ``experiment/...`` entries) and its figure
   ``docs/reproduction.png``;
-* ``docs/glossy.png``: test PSNR against roughness (``glossy/2d``, ``glossy/3d``), the goals marked; in 2D the
-  first wave's grid preset too (``glossy/preset``), beside its figure on issue 14's data.
+* ``docs/glossy.png``: test PSNR against roughness (``glossy/2d``, ``glossy/3d``), the goals marked; in 2D a plain
+  grid too (``glossy/preset``: no view dependence, no losses), beside the figure a user reported for it.
 
     python benchmarks/report.py
 """
@@ -88,8 +88,25 @@ def lego_table(results: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def captures_table(results: dict, name: str) -> str:
+    """``<name>/fit`` beside the published figures of ``benchmarks/captures.py``'s :data:`ANCHORS`."""
+    if __package__:
+        from .captures import ANCHORS
+    else:
+        from captures import ANCHORS
+    e = results.get(f"{name}/fit")
+    if e is None or name not in ANCHORS:
+        return ""
+    v = e["values"]
+    lines = ["| run | test PSNR [dB] | SSIM | training | hardware |", "|---|---|---|---|---|",
+             f"| `{name}/fit` ({v['recipe']}) | {v['psnr']:.2f} | {v['ssim']:.3f} | {v['train_s']:.0f} s, {v['steps']} "
+             f"steps | {machine_line(e['machine'])} |"]
+    lines += [f"| {who} (published) | {db} | | {when} | {gpu} |" for who, db, when, gpu in ANCHORS[name]]
+    return "\n".join(lines) + "\n"
+
+
 REPORTED_PRESET = 27.8
-"""Issue 14's report: the first wave's grid preset on its first glossy dataset, 10 s (dB)."""
+"""The figure a user reported for the plain grid on a glossy 2D dataset, 10 s (dB)."""
 
 
 def glossy_figure(results: dict, path: Path) -> Path | None:
@@ -110,9 +127,9 @@ def glossy_figure(results: dict, path: Path) -> Path | None:
                 ax.plot([float(a) for a in alphas], [values[a][name]["psnr"] for a in alphas], style, label=label)
         preset = results.get("glossy/preset", {}).get("values", {}) if key == "glossy/2d" else {}
         shown = [a for a in alphas if f"bunny_glossy_r{a}" in preset]
-        if shown:           # the first wave's preset: where it meets issue 14's report is a roughness like theirs
+        if shown:           # the plain grid: where it meets the reported figure is a roughness like theirs
             ax.plot([float(a) for a in shown], [preset[f"bunny_glossy_r{a}"]["psnr"] for a in shown], "x:",
-                    color="grey", label="first-wave grid preset")
+                    color="grey", label="plain grid")
             ax.axhline(REPORTED_PRESET, color="grey", lw=0.8, ls="--",
                        label=f"that preset on the report's data, {REPORTED_PRESET:g} dB")
         ax.axhline(goal, color="r", lw=0.8, ls=":", label=f"goal {goal:g} dB")
@@ -141,6 +158,8 @@ def main() -> int:
         text += [rows_table(k, e) for k, e in entries.items() if k.startswith("fits/") and "rows" in e["values"]]
         if area == "lego":
             text.append(lego_table(results))
+        if area in ("fern", "fox"):
+            text.append(captures_table(results, area))
     (ROOT / "RESULTS.md").write_text("\n".join(text))
     readme = ROOT / "README.md"
     chosen = {k: results[k] for k in README_KEYS if k in results}
