@@ -63,8 +63,9 @@ def rows_table(key: str, entry: dict) -> str:
     lines = [f"`{key}` ({machine_line(entry['machine'])}, {entry['date']}):\n",
              f"| run | PSNR | SSIM | {geo} | parameters | seconds | status |",
              "|---|---|---|---|---|---|---|"]
-    lines += [f"| {r['run']} | {r['psnr']:.2f} | {r['ssim']:.3f} | {r['geometry']:.4f} | {r['params']} | "
-              f"{r['seconds']:.1f} | {r['status']} |" for r in rows]
+    f = lambda v, spec: "-" if v is None else format(v, spec)           # noqa: E731  (null: not measured)
+    lines += [f"| {r['run']} | {f(r['psnr'], '.2f')} | {f(r['ssim'], '.3f')} | {f(r['geometry'], '.4f')} | "
+              f"{r['params']} | {f(r['seconds'], '.1f')} | {r['status']} |" for r in rows]
     return "\n".join(lines) + "\n"
 
 
