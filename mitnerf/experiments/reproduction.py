@@ -22,7 +22,8 @@ from .window_shop import tables
 REPRODUCE = ("pe", "depth", "pixelnerf", "window-shop")
 """The experiments that test the reports' claims (``mitnerf experiment all``)."""
 
-KEEP = ("psnr", "ssim", "iou", "depth_error", "chamfer", "train_time", "steps", "status", "reason")
+KEEP = ("psnr", "ssim", "iou", "depth_error", "chamfer", "train_time", "steps", "status", "reason", "psnr_ours",
+        "ssim_ours")
 BUDGETS = {
     "pe": lambda c: f"{c.steps} steps per run, {len(c.Ls)} L x {c.seeds} seeds",
     "depth": lambda c: (f"{c.steps} steps of {c.batch_rays} rays, {len(c.scenes)} scenes x {len(c.views)} view counts "
