@@ -29,8 +29,8 @@ from ...errors import DataError
 from ..cameras import Cameras
 from ..color import to_uint8
 from ..dataset import Dataset, Split, bounds_from_cameras
-from .capture import IMAGE_SUFFIXES, check_downscale, check_intrinsics, hold_out, read_views
-from .common import check_memory, check_poses, image_size, npz_shapes, read_meta, read_npz, write_meta
+from .capture import IMAGE_SUFFIXES, capture_dataset, check_downscale, check_intrinsics, hold_out, read_views
+from .common import check_memory, check_poses, image_size, npz_shapes, read_npz, write_meta
 
 CAMERA_FILES = ("cameras_sphere.npz", "cameras.npz")
 MAX_SKEW = 0.05
@@ -89,16 +89,9 @@ def read_idr(path: str | Path, downscale: int = 1) -> Dataset:
     color, alpha = read_views(images, downscale, str(images[0].parent), masks)
     cameras = Cameras(poses, fx, H, W, fy, cx, cy)
     cameras = cameras.downscaled(downscale) if downscale > 1 else cameras
-    meta = read_meta(path)
-    meta.setdefault("format", "idr")
-    meta.setdefault("scene", path.name)
-    meta.update(scale_mat=data["scale_mat_0"].tolist(), masks=masks is not None)
-    if downscale > 1:
-        meta["downscale"] = downscale
-    near, far = (meta["near"], meta["far"]) if "near" in meta and "far" in meta else bounds_from_cameras([cameras], 1.0,
-                                                                                                         0.0)
-    views = Split(cameras, color, alpha)
-    return Dataset({s: views.subset(i) for s, i in hold_out(n, str(path)).items()}, float(near), float(far), meta)
+    return capture_dataset(path, "idr", Split(cameras, color, alpha), hold_out(n, str(path)), downscale,
+                           lambda: bounds_from_cameras([cameras], 1.0, 0.0), scale_mat=data["scale_mat_0"].tolist(),
+                           masks=masks is not None)
 
 
 def _camera(world: np.ndarray, scale: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:

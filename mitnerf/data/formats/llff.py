@@ -27,9 +27,9 @@ from ...errors import DataError
 from ..cameras import Cameras
 from ..color import to_uint8
 from ..dataset import Dataset, Split
-from .capture import (IMAGE_SUFFIXES, MAX_VIEWS, check_downscale, depth_bounds, hold_out, image_folder, layout,
-                      near_far, read_views)
-from .common import check_focal, check_poses, image_size, integer, npy_shape, read_meta, read_npy, write_meta
+from .capture import (IMAGE_SUFFIXES, MAX_VIEWS, capture_dataset, check_downscale, depth_bounds, hold_out,
+                      image_folder, layout, near_far, read_views)
+from .common import check_focal, check_poses, image_size, integer, npy_shape, read_npy, write_meta
 
 
 def read_llff(path: str | Path, downscale: int = 1) -> Dataset:
@@ -70,15 +70,8 @@ def read_llff(path: str | Path, downscale: int = 1) -> Dataset:
     cams = Cameras(poses, focal * W / W0, H, W, focal * H / H0)
     color, alpha = read_views(files, box, str(folder))
     cams = cams.downscaled(box) if box > 1 else cams
-    meta = read_meta(path)
-    meta.setdefault("format", "llff")
-    meta.setdefault("scene", path.name)
-    meta.update(bounds=bounds.tolist(), layout=layout(poses))
-    if N * box > 1:
-        meta["downscale"] = N * box
-    near, far = (meta["near"], meta["far"]) if "near" in meta and "far" in meta else near_far(cams, bounds)
-    views = Split(cams, color, alpha)
-    return Dataset({s: views.subset(i) for s, i in hold_out(n, str(path)).items()}, float(near), float(far), meta)
+    return capture_dataset(path, "llff", Split(cams, color, alpha), hold_out(n, str(path)), N * box,
+                           lambda: near_far(cams, bounds), bounds=bounds.tolist(), layout=layout(poses))
 
 
 def write_llff(dataset: Dataset, folder: Path) -> None:
