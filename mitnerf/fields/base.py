@@ -27,8 +27,7 @@ DENSITY_ACTIVATIONS = tuple(_DENSITY)
 @dataclass
 class FieldConfig:
     """The settings every field has (each checked by its declaration, :mod:`mitnerf.settings`; a family's config
-    adds its own), and the
-    end of a coarse-to-fine schedule (none by default)."""
+    adds its own), and the end of a coarse-to-fine schedule (none by default)."""
 
     dim: int = setting(2, choices=(2, 3))
     """2 or 3: the data's dimension."""
