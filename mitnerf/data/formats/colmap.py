@@ -26,12 +26,11 @@ from scipy.spatial.transform import Rotation
 
 from ...errors import DataError
 from ..cameras import Cameras
-from ..color import to_uint8
 from ..dataset import Dataset, Split
 from .capture import (absent, capture_dataset, check_downscale, check_intrinsics, check_lens, hold_out, image_folder,
                       layout, near_far, read_views, warn_skipped)
 from .colmap_files import Model, read_model, write_model
-from .common import check_poses, image_size, write_meta
+from .common import check_poses, image_size, write_meta, write_png
 
 PARAMETERS = {"SIMPLE_PINHOLE": "f cx cy", "PINHOLE": "fx fy cx cy", "SIMPLE_RADIAL": "f cx cy k1",
               "RADIAL": "f cx cy k1 k2", "OPENCV": "fx fy cx cy k1 k2 p1 p2",
@@ -158,8 +157,6 @@ def view_bounds(cams: Cameras, points: np.ndarray, where: str) -> np.ndarray | N
 
 def write_colmap(dataset: Dataset, folder: Path, binary: bool = False) -> None:
     """Write ``dataset`` (3D) as a COLMAP folder (module docstring)."""
-    import imageio.v3 as iio
-
     if dataset.dim != 3:
         raise DataError("the COLMAP format holds 3D captures; use --format nerf2d or nerfstudio for 2D scenes")
     views = Split.concatenate(list(dataset.splits.values()))
@@ -184,6 +181,6 @@ def write_colmap(dataset: Dataset, folder: Path, binary: bool = False) -> None:
         tracks = list(zip(i.tolist(), (u + 0.5).tolist(), (v + 0.5).tolist()))
     (folder / "images").mkdir()
     for i, img in enumerate(views.target(dataset.background)):
-        iio.imwrite(folder / "images" / shots[i][0], to_uint8(img))
+        write_png(folder / "images" / shots[i][0], img)
     write_model(folder / "sparse" / "0", Model(cameras, shots, points), binary, tracks)
     write_meta(folder, dataset, "colmap")

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..._io import available_memory
 from ...errors import DataError
+from ..color import to_uint8
 
 META = "mitnerf.json"
 MAX_SIDE = 16384
@@ -193,6 +194,13 @@ def read_image(path: Path) -> np.ndarray:
     if not np.isfinite(out).all():
         raise DataError(f"image {path} contains NaN or infinite pixels; replace the file")
     return out
+
+
+def write_png(path: Path, image: np.ndarray) -> None:
+    """``image`` (floats in [0, 1], or a mask) as an 8-bit PNG, what :func:`read_image` reads back."""
+    import imageio.v3 as iio
+
+    iio.imwrite(path, to_uint8(image))
 
 
 def as_rgba(img: np.ndarray) -> np.ndarray:
