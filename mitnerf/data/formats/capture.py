@@ -76,10 +76,9 @@ def check_lens(cameras: Cameras, where: str) -> None:
         edge = np.concatenate([np.c_[u, np.full(W, 0.5)], np.c_[u, np.full(W, H - 0.5)],
                                np.c_[np.full(H, 0.5), v], np.c_[np.full(H, W - 0.5), v]])
         try:
-            xy = undistort((edge - [cx, cy]) / [fx, fy], k, 1e-9 / max(fx, fy))
+            J = jacobian(undistort((edge - [cx, cy]) / [fx, fy], k, 1e-9 / max(fx, fy)), k)
         except MitnerfError:
-            xy = None
-        J = None if xy is None else jacobian(xy, k)
+            J = None
         if J is None or not np.all(J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0] > 0):
             raise DataError(f"{where}: frame {i}'s lens distortion ({named}) cannot be inverted at the image's edge; "
                             "check the coefficients and that they belong to these focal lengths")
