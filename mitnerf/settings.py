@@ -171,20 +171,15 @@ def field_named(cls, key: str) -> dataclasses.Field | None:
     return next((f for f in dataclasses.fields(cls) if f.name == key), None)
 
 
-def parse_text(text: str):
-    """A ``--set`` value: a JSON literal when it parses, else the text."""
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
-
 def parse_set(text: str) -> tuple[str, object]:
-    """``KEY=VALUE`` (an argparse type)."""
+    """``KEY=VALUE`` (an argparse type); the value is a JSON literal when it parses, else the text."""
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"expected key=value, got {text!r}")
     key, value = text.split("=", 1)
-    return key.strip(), parse_text(value)
+    try:
+        return key.strip(), json.loads(value)
+    except json.JSONDecodeError:
+        return key.strip(), value
 
 
 def show_value(v) -> str:
