@@ -204,8 +204,9 @@ class Cameras:
         unique, inverse = self._groups()
         parts = [self._directions(p, steps=True) for p in unique]
         norm = [np.linalg.norm(raw, axis=-1) for raw, _ in parts]
-        return (inverse, np.stack([raw / n[..., None] for (raw, _), n in zip(parts, norm)]),
-                np.stack([steps / n[..., None, None] for (_, steps), n in zip(parts, norm)]))
+        shape = (len(parts), self.height, self.width)                  # no frames: no groups
+        return (inverse, np.reshape([raw / n[..., None] for (raw, _), n in zip(parts, norm)], (*shape, self.dim)),
+                np.reshape([steps / n[..., None, None] for (_, steps), n in zip(parts, norm)], (*shape, 2, self.dim)))
 
     def depth_stretch(self) -> np.ndarray:
         """``[n]``: the largest distance along a pixel-centre ray per unit of depth along the optical axis (3D: the
