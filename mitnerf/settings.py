@@ -24,6 +24,8 @@ import typing
 from .errors import ConfigError
 
 KEY = "mitnerf"
+METAVARS = {"int": "N", "float": "X", "tuple": "A,B,..."}
+"""A flag's placeholder by the kind of its value (others: ``TEXT``)."""
 
 
 def setting(default=dataclasses.MISSING, *, lo=None, hi=None, above: bool = False, choices=None, flag=None,
@@ -171,20 +173,15 @@ def field_named(cls, key: str) -> dataclasses.Field | None:
     return next((f for f in dataclasses.fields(cls) if f.name == key), None)
 
 
-def parse_text(text: str):
-    """A ``--set`` value: a JSON literal when it parses, else the text."""
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
-
 def parse_set(text: str) -> tuple[str, object]:
-    """``KEY=VALUE`` (an argparse type)."""
+    """``KEY=VALUE`` (an argparse type); the value is a JSON literal when it parses, else the text."""
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"expected key=value, got {text!r}")
     key, value = text.split("=", 1)
-    return key.strip(), parse_text(value)
+    try:
+        return key.strip(), json.loads(value)
+    except json.JSONDecodeError:
+        return key.strip(), value
 
 
 def show_value(v) -> str:
@@ -264,7 +261,7 @@ def add_flags(group, cls, *, prefix: str = "", dest: str = "", overrides: bool =
             group.add_argument(s["flag"], dest=dest + key, default=default, help=text, type=flag_type(cls, f),
                                required=default is dataclasses.MISSING and not overrides,
                                metavar=s.get("metavar") or ("|".join(map(str, choices)) if choices else
-                                                            _metavar(kind, s)))
+                                                            METAVARS.get(kind, "TEXT")))
         out[s["flag"]] = key
         if seen is not None:
             seen.add(s["flag"])
@@ -291,10 +288,6 @@ def parse_color(text: str, names: tuple = ()) -> str | tuple:
         raise ConfigError(f"expected {', '.join(names) + ' or ' if names else ''}r,g,b with values in [0, 1], "
                           f"got {text!r}")
     return values
-
-
-def _metavar(kind, s: dict) -> str:
-    return {"int": "N", "float": "X", "tuple": "A,B,..."}.get(kind, "TEXT")
 
 
 def summary(text: str) -> str:

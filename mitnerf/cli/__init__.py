@@ -90,11 +90,8 @@ def main(argv: list[str] | None = None) -> int:
             status = int(args.run(args) or 0)
             out.flush_notes()
             return status
-    except MitnerfError as exc:
-        print(f"mitnerf: error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
-        print(f"mitnerf: error: {os_error_line(exc)}", file=sys.stderr)
+    except (MitnerfError, OSError) as exc:
+        print(f"mitnerf: error: {os_error_line(exc) if isinstance(exc, OSError) else exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
         sig = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"

@@ -10,12 +10,13 @@ from ..settings import add_flags, check
 
 
 def add_command(sub, name: str, cls, run, *configs, help: str) -> argparse.ArgumentParser:
-    """The sub-command ``name``: the flags of the dataclass ``cls`` and of each ``(config class, prefix, shown)``
-    in ``configs`` (their flags unset hold None: the config's own default, named by ``shown(key)``, applies)."""
+    """The sub-command ``name``: the flags of the dataclass ``cls`` and of each ``(config class, prefix[, shown])``
+    in ``configs`` (their flags unset hold None: the config's own default, named by ``shown(key)`` or else the
+    declaration's, applies)."""
     p = sub.add_parser(name, help=help, description=f"{help[0].upper()}{help[1:]}.")
     add_flags(p, cls)
-    for config, prefix, shown in configs:
-        add_flags(p, config, prefix=prefix, overrides=True, shown=shown)
+    for config, prefix, *shown in configs:
+        add_flags(p, config, prefix=prefix, overrides=True, shown=shown[0] if shown else None)
     p.set_defaults(run=run, command=cls)
     return p
 

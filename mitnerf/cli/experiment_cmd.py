@@ -21,7 +21,7 @@ from ..experiments import EXPERIMENTS
 from ..experiments.reproduction import REPRODUCE, record, write
 from ..experiments.sweep import Config, build_rows, parse_budget, run as sweep_rows
 from ..results import load_results
-from ..settings import check, check_value, default_of, field_named, parse_set, setting, show_value
+from ..settings import check, check_value, field_named, parse_set, setting
 from .command import add_command, options, parse
 
 
@@ -57,8 +57,7 @@ def register(sub) -> None:
     p.add_argument("--set", dest="sets", action="append", default=[], type=parse_set, metavar="KEY=VALUE",
                    help="change one setting of the experiment's Config; repeatable, the value in JSON (default: "
                         "the experiment's)")
-    add_command(sub, "sweep", SweepCommand, run_sweep,
-                (Config, "sweep.", lambda key: show_value(default_of(field_named(Config, key.split(".", 1)[1])))),
+    add_command(sub, "sweep", SweepCommand, run_sweep, (Config, "sweep."),
                 help="train a grid of configurations: test PSNR against wall time, the Pareto front")
 
 

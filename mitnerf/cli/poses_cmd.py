@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from .._io import Output
 from ..data.sfm import SfmConfig, find_images, need_pycolmap, pose_capture
-from ..settings import setting, show_value
+from ..settings import setting
 from .command import add_command, options, parse
 
 SIFT_BYTES = 200
@@ -31,8 +31,7 @@ class PosesCommand:
 
 
 def register(sub) -> None:
-    add_command(sub, "poses", PosesCommand, run,
-                (SfmConfig, "sfm.", lambda key: show_value(getattr(SfmConfig(), key.split(".", 1)[1]))),
+    add_command(sub, "poses", PosesCommand, run, (SfmConfig, "sfm."),
                 help="camera poses of a folder of photographs by structure from motion (COLMAP)")
 
 

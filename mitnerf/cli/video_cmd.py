@@ -21,7 +21,7 @@ from ..train.checkpoint import load_checkpoint
 from ..viz.rigs import plot_mesh_comparison
 from ..viz.paths import PATH_OF, path_cameras
 from ..viz.video import OrbitConfig, orbit_video
-from ..settings import setting, show_value
+from ..settings import setting
 from .command import add_command, options, parse
 
 
@@ -60,8 +60,7 @@ class VideoCommand:
 
 
 def register(sub) -> None:
-    add_command(sub, "video", VideoCommand, run,
-                (OrbitConfig, "orbit.", lambda key: show_value(getattr(OrbitConfig(), key.split(".", 1)[1]))),
+    add_command(sub, "video", VideoCommand, run, (OrbitConfig, "orbit."),
                 help="a video (colour, depth) of a trained 3D field along a path that fits its scene, and its mesh")
 
 

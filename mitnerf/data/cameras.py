@@ -192,21 +192,10 @@ class Cameras:
         s[..., 0], s[..., 1] = d[..., 0, :], -d[..., 1, :]
         return raw, s
 
-    def _per_frame(self, fn, shape: tuple, index=None) -> np.ndarray:
-        """``fn(frames, raw, steps)`` of every group of frames sharing intrinsics, stacked into ``[n, *shape]``."""
-        unique, inverse = self._groups()
-        frames = np.arange(len(self)) if index is None else np.arange(len(self))[index]
-        out = np.empty((len(frames), *shape))
-        for g, p in enumerate(unique):
-            mine = np.flatnonzero(inverse[frames] == g)
-            if len(mine):
-                out[mine] = fn(frames[mine], *self._directions(p, steps=True))
-        return out
-
     def camera_directions(self, index=None) -> np.ndarray:
         """Unit pixel-centre directions in camera space of the frames ``index`` (all if None), ``[n, H, W, dim]``."""
-        unit = lambda frames, raw, _: (raw / np.linalg.norm(raw, axis=-1, keepdims=True))[None]
-        return self._per_frame(unit, (self.height, self.width, self.dim), index)
+        group, local, _ = self.local_rays()
+        return local[group if index is None else group[index]]
 
     def local_rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Camera-space rays per group of frames that share intrinsics: ``(group of each frame [n], unit pixel-centre
@@ -215,38 +204,35 @@ class Cameras:
         unique, inverse = self._groups()
         parts = [self._directions(p, steps=True) for p in unique]
         norm = [np.linalg.norm(raw, axis=-1) for raw, _ in parts]
-        return (inverse, np.stack([raw / n[..., None] for (raw, _), n in zip(parts, norm)]),
-                np.stack([steps / n[..., None, None] for (_, steps), n in zip(parts, norm)]))
+        shape = (len(parts), self.height, self.width)                  # no frames: no groups
+        return (inverse, np.reshape([raw / n[..., None] for (raw, _), n in zip(parts, norm)], (*shape, self.dim)),
+                np.reshape([steps / n[..., None, None] for (_, steps), n in zip(parts, norm)], (*shape, 2, self.dim)))
 
     def depth_stretch(self) -> np.ndarray:
         """``[n]``: the largest distance along a pixel-centre ray per unit of depth along the optical axis (3D: the
         view axis), over each frame's pixels (>= 1: a depth bound times it bounds the distance)."""
+        unique, inverse = self._groups()
         axis = 0 if self.dim == 2 else -1
-        widest = lambda frames, raw, _: (np.linalg.norm(raw, axis=-1) / np.abs(raw[..., axis])).max()
-        return self._per_frame(widest, (), None)
+        raws = [self._directions(p) for p in unique]
+        widest = [(np.linalg.norm(raw, axis=-1) / np.abs(raw[..., axis])).max() for raw in raws]
+        return np.array(widest)[inverse]
 
     def footprint(self) -> np.ndarray:
         """Each pixel's extent as steps of its unit direction, ``[n, H, W, 2, dim]``: the ray through the point
         ``(a, b)`` of pixel ``(v, u)`` (``a, b`` in [-1/2, 1/2], 0 at the centre) has the direction
         ``normalize(d + a s_0 + b s_1)`` (to first order through the lens). In 2D ``s_0`` steps one row and ``s_1``
         is zero (1D views)."""
+        group, _, steps = self.local_rays()
         k = self.dim
-
-        def rotate(frames, raw, steps):
-            steps = steps / np.linalg.norm(raw, axis=-1)[..., None, None]
-            return np.einsum("nij,hwsj->nhwsi", self.poses[frames, :k, :k], steps)
-        return self._per_frame(rotate, (self.height, self.width, 2, k))
+        return np.einsum("nij,nhwsj->nhwsi", self.poses[:, :k, :k], steps[group])
 
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions of every pixel-centre ray, each ``[n, H, W, dim]``."""
+        group, local, _ = self.local_rays()
         k = self.dim
-
-        def rotate(frames, raw, _):
-            d = np.einsum("nij,hwj->nhwi", self.poses[frames, :k, :k], raw / np.linalg.norm(raw, axis=-1)[..., None])
-            return d / np.linalg.norm(d, axis=-1, keepdims=True)
-        d = self._per_frame(rotate, (self.height, self.width, k))
-        o = np.broadcast_to(self.origins[:, None, None, :], d.shape)
-        return np.ascontiguousarray(o), d
+        d = np.einsum("nij,nhwj->nhwi", self.poses[:, :k, :k], local[group])
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        return np.ascontiguousarray(np.broadcast_to(self.origins[:, None, None, :], d.shape)), d
 
     def to_camera(self, points: np.ndarray) -> np.ndarray:
         """World points ``[m, dim]`` in every camera's axes, ``[n, m, dim]`` (through the inverse of each pose's

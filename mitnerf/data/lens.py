@@ -44,8 +44,7 @@ def _forward(xy, k):
     yd = y * q + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
     J = np.empty(np.broadcast_shapes(x.shape, k1.shape) + (2, 2))
     J[..., 0, 0] = q + 2 * x * x * dq + 2 * p1 * y + 6 * p2 * x
-    J[..., 0, 1] = 2 * x * y * dq + 2 * p1 * x + 2 * p2 * y
-    J[..., 1, 0] = 2 * x * y * dq + 2 * p1 * x + 2 * p2 * y
+    J[..., 0, 1] = J[..., 1, 0] = 2 * x * y * dq + 2 * p1 * x + 2 * p2 * y
     J[..., 1, 1] = q + 2 * y * y * dq + 6 * p1 * y + 2 * p2 * x
     return np.stack([xd, yd], -1), J
 

@@ -44,12 +44,11 @@ from scipy.spatial.transform import Rotation
 from ..errors import DataError, EnvironmentProblem
 from ..settings import check, setting
 from .cameras import Cameras
-from .color import to_uint8
 from .dataset import box_downscale
 from .formats.capture import IMAGE_SUFFIXES, check_intrinsics, layout, near_far
 from .formats.colmap import camera_lens, camera_pose, view_bounds
 from .formats.colmap_files import read_model
-from .formats.common import META, as_rgba, image_size, read_image
+from .formats.common import META, as_rgba, image_size, read_image, write_png
 from .formats.transforms import camera_keys
 
 MIN_IMAGES = 3
@@ -279,8 +278,6 @@ def _world(pycolmap, recon):
 def _write_transforms(out: Path, downscale: int, info: dict, scene: str) -> dict:
     """``transforms.json`` and ``mitnerf.json`` (returned) from the model in ``out/sparse/0`` (and images_N/ with
     ``downscale`` > 1)."""
-    import imageio.v3 as iio
-
     where = str(out / "sparse" / "0")
     model = read_model(out / "sparse" / "0")
     K = np.array([camera_lens(model.cameras[cid][0], model.cameras[cid][3], where) for *_, cid in model.images])
@@ -299,7 +296,7 @@ def _write_transforms(out: Path, downscale: int, info: dict, scene: str) -> dict
         (out / folder).mkdir()
         for name, *_ in model.images:
             small = box_downscale(as_rgba(read_image(out / "images" / name))[None, ..., :3], downscale, downscale)
-            iio.imwrite(out / folder / name, to_uint8(small[0]))
+            write_png(out / folder / name, small[0])
         cams = cams.downscaled(downscale)
     header, own = camera_keys(cams)
     header.update(ply_file_path="sparse_pc.ply", frames=[

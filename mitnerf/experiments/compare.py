@@ -9,7 +9,7 @@ from pathlib import Path
 from ..data.dataset import Dataset
 from ..train.fit import fit_and_evaluate
 from ..train.recipes import Recipe
-from ..viz.panels import pyplot, save
+from ..viz.charts import series_figure
 from .report import markdown_table, write_csv, write_report
 
 COLUMNS = ["recipe", "psnr", "ssim", "train_time", "steps", "params", "status"]
@@ -42,14 +42,10 @@ def winner(rows: list[dict]) -> str:
 
 
 def draw(path: Path, curves: dict, title: str) -> Path:
-    """Validation PSNR against training time, one line per recipe."""
-    fig, ax = pyplot().subplots(figsize=(7, 4.2))
-    for name, (t, p) in curves.items():
-        ax.plot(t, p, "o-", ms=3, label=name)
-    ax.set(xlabel="training time [s]", ylabel="validation PSNR [dB]", title=title)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    return save(fig, path)
+    """Validation PSNR against training time, one line per recipe (:func:`~mitnerf.viz.charts.series_figure`)."""
+    points = [{"recipe": name, "time": t, "psnr": p} for name, (ts, ps) in curves.items() for t, p in zip(ts, ps)]
+    return series_figure(path, [dict(title=title, rows=points, x="time", by=("recipe",), err=False,
+                                     xlabel="training time [s]", ylabel="validation PSNR [dB]")], cell=(7, 4.2))
 
 
 def write(out: Path, dataset: Dataset, rows: list[dict], curves: dict, budget: str) -> str:

@@ -18,14 +18,7 @@ from ..train.recipes import get_recipe
 from ..viz.charts import series_figure
 from ..viz.panels import density_panel, depth_panel, image_grid, strip_panel
 from .claims import judged
-from .report import (
-    markdown_table,
-    mean_std,
-    summarise,
-    train_row,
-    write_csv,
-    write_report,
-)
+from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
 
 METHODS = (("NeRF", False), ("DS-NeRF", True))
 

@@ -15,6 +15,7 @@ from .._io import atomic_write_text
 from ..data.dataset import Dataset
 from ..train.fit import fit_and_evaluate
 from ..train.recipes import Recipe
+from ..viz.charts import num
 
 
 def train_row(dataset: Dataset, recipe: Recipe, labels: dict, backend: str = "drjit",
@@ -40,13 +41,6 @@ def write_csv(path: Path, rows: list[dict]) -> Path:
 def read_csv(path: Path) -> list[dict]:
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
-
-
-def num(v) -> float:
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return math.nan
 
 
 def summarise(rows: list[dict], by: list[str], metrics=("psnr", "ssim")) -> list[dict]:

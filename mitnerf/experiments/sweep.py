@@ -92,13 +92,11 @@ def quick(seed: int = 0) -> Config:
 def parse_budget(text: str) -> dict:
     """``"20s"`` -> 20 s of training; ``"500it"`` -> 500 steps."""
     t = str(text).strip().lower()
-    try:
+    with contextlib.suppress(ValueError):
         if t.endswith("it") and int(t[:-2]) > 0:
             return {"iters": int(t[:-2])}
         if t.endswith("s") and 0 < float(t[:-1]) < 1e7:
             return {"time_budget": float(t[:-1])}
-    except ValueError:
-        pass
     raise ConfigError(f"cannot read the budget {text!r}; write seconds as '20s' or steps as '500it'")
 
 

@@ -27,8 +27,7 @@ DENSITY_ACTIVATIONS = tuple(_DENSITY)
 @dataclass
 class FieldConfig:
     """The settings every field has (each checked by its declaration, :mod:`mitnerf.settings`; a family's config
-    adds its own), and the
-    end of a coarse-to-fine schedule (none by default)."""
+    adds its own), and the end of a coarse-to-fine schedule (none by default)."""
 
     dim: int = setting(2, choices=(2, 3))
     """2 or 3: the data's dimension."""
@@ -102,10 +101,11 @@ def density_activation(raw, kind: str):
 
 def cell_corners(i0: list, frac: list):
     """The ``2^D`` corners of the cells at integer coordinates ``i0`` (D arrays) for points at
-    fractions ``frac`` of them: ``(coordinates, bi/trilinear weight)``; corner bit ``a`` steps along axis ``a``."""
+    fractions ``frac`` of them: ``(coordinates, bi/trilinear weight)``; corner bit ``a`` steps along axis ``a``.
+    Dr.Jit arrays or torch tensors alike (the twins' corner order)."""
     for c in range(1 << len(i0)):
         bits = [(c >> a) & 1 for a in range(len(i0))]
-        weight = Float(1.0)
+        weight = 1.0
         for f, bit in zip(frac, bits):
             weight = weight * (f if bit else 1.0 - f)
         yield [i + bit for i, bit in zip(i0, bits)], weight

@@ -107,12 +107,9 @@ class Levels:
 
 def levels_of(cfg: HashLinearConfig) -> Levels:
     """The table layout of ``cfg`` (both engines build theirs from it)."""
-    sizes, dense = [], []
-    for level, r in enumerate(cfg.resolutions):
-        full = r ** cfg.dim
-        is_dense = level < cfg.dense_levels or full <= 2 ** cfg.log2_hashmap_size
-        sizes.append(full if is_dense else 2 ** cfg.log2_hashmap_size)
-        dense.append(is_dense)
+    table = 2 ** cfg.log2_hashmap_size
+    dense = [level < cfg.dense_levels or r ** cfg.dim <= table for level, r in enumerate(cfg.resolutions)]
+    sizes = [r ** cfg.dim if d else table for r, d in zip(cfg.resolutions, dense)]
     coeffs = [cfg.color_coeffs if level < cfg.view_levels else 1 for level in range(len(sizes))]
     offsets = [sum(sizes[:level]) for level in range(len(sizes))]
     color = [sum(3 * c * s for c, s in zip(coeffs[:level], sizes[:level])) for level in range(len(sizes) + 1)]

@@ -36,10 +36,9 @@ def library():
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if cc is None or not SOURCE.exists():
         return None
-    try:
+    flags = ""
+    with contextlib.suppress(OSError):
         flags = next((line for line in Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("flags")), "")
-    except OSError:
-        flags = ""
 
     def build(tmp: Path) -> None:
         subprocess.run([cc, "-O3", "-march=native", "-pthread", "-shared", "-fPIC", str(SOURCE), "-o",

@@ -124,10 +124,6 @@ class Model:
     def from_numpy(self, arrays: dict) -> dict:
         return join_params(**{g: f.from_numpy(split_params(arrays, g)) for g, f in self.fields.items()})
 
-    def n_final(self) -> int:
-        """Samples per ray of the final pass."""
-        return self.render_cfg.n_coarse + max(self.render_cfg.n_fine, 0)
-
     def schedule(self, step: int, params: dict) -> dict | None:
         """Parameters that a field's training schedule replaces before ``step`` (e.g. a
         grid's coarse-to-fine resize), with prefixed keys; None when nothing changes."""

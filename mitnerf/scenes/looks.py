@@ -12,6 +12,7 @@ by ``benchmarks/glossy_sweep.py``.
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -39,11 +40,8 @@ def split_variant(name: str) -> tuple[str, str | None, float | None, bool]:
     roughness = None
     head, sep, tail = base.rpartition("_r")
     if sep and head and any(head.endswith("_" + m) for m in (*MATERIALS, *ALIASES)):
-        try:
-            roughness = float(tail)
-            base = head
-        except ValueError:
-            pass
+        with contextlib.suppress(ValueError):
+            roughness, base = float(tail), head
     for m in (*MATERIALS, *ALIASES):
         if base.endswith("_" + m):
             return base[:-len(m) - 1], ALIASES.get(m, m), roughness, env

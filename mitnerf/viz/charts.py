@@ -8,7 +8,8 @@ from pathlib import Path
 from .panels import pyplot, save
 
 
-def _num(v) -> float:
+def num(v) -> float:
+    """``v`` as a float; NaN where it is none (an empty CSV cell, text)."""
     try:
         return float(v)
     except (TypeError, ValueError):
@@ -23,9 +24,9 @@ def series(ax, rows: list[dict], x: str, y: str = "psnr", by: tuple = (), styles
     for r in rows:
         groups.setdefault(tuple(r[k] for k in by), []).append(r)
     for key, rs in groups.items():
-        rs = sorted(rs, key=lambda r: _num(r[x]))
-        xs, ys = [_num(r[x]) for r in rs], [_num(r[y]) for r in rs]
-        ax.errorbar(xs, ys, yerr=[_num(r.get(f"{y}_std")) for r in rs] if err else None, capsize=2,
+        rs = sorted(rs, key=lambda r: num(r[x]))
+        xs, ys = [num(r[x]) for r in rs], [num(r[y]) for r in rs]
+        ax.errorbar(xs, ys, yerr=[num(r.get(f"{y}_std")) for r in rs] if err else None, capsize=2,
                     fmt=(styles or {}).get(key[-1] if key else None, "o-"), label=", ".join(map(str, key)) or None)
         for r, xy in zip(rs, zip(xs, ys)):
             if "label" in r:

@@ -166,8 +166,6 @@ class OrbitVideo:
     """``{'color_gif', 'color_mp4', 'depth_gif', 'depth_mp4'}`` -> file path."""
     frames: OrbitFrames
     """The rendered frames."""
-    write_seconds: float
-    """Time spent encoding and writing the files."""
 
     def summary(self) -> str:
         n, H, W = self.frames.depth.shape
@@ -179,8 +177,7 @@ def orbit_video(backend, cfg: OrbitConfig, out: str | Path, background=(1.0, 1.0
                 cameras: Cameras | None = None) -> OrbitVideo:
     """Render the orbit (or ``cameras``, another path) and write ``color.<fmt>`` and ``depth.<fmt>`` into ``out``."""
     frames = render_orbit(backend, orbit_cameras(cfg) if cameras is None else cameras, batch_rays, progress=progress)
-    t0 = time.perf_counter()
     videos = {"color": to_uint8(frames.rgb), "depth": to_uint8(depth_frames(frames.depth, background))}
     paths = {f"{kind}_{fmt}": write_video(Path(out) / f"{kind}.{fmt}", v, cfg.fps) for fmt in formats
              for kind, v in videos.items()}
-    return OrbitVideo(paths, frames, time.perf_counter() - t0)
+    return OrbitVideo(paths, frames)

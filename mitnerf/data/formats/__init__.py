@@ -124,12 +124,9 @@ def read_tiny_nerf(path: str | Path, near: float = 2.0, far: float = 6.0, downsc
         raise DataError(f"{path}: {len(images)} images need 'poses' of shape [{len(images)}, 4, 4], got {poses.shape}")
     if focal.size != 1 or focal.dtype.kind not in "if":
         raise DataError(f"{path}: 'focal' must be one number (pixels), got {focal.shape} {focal.dtype}")
-    n, H, W = images.shape[:3]
-    if max(H, W) > MAX_SIDE:
-        raise DataError(f"{path}: views of {H} x {W} pixels are too large; downsample them")
+    n, H, W = images.shape[:3]          # their size and memory were checked from the header
     if n < 3:
         raise DataError(f"{path} has {n} frames; need at least 3 (train, val, test)")
-    check_memory(n * H * W, str(path))
     check_poses(poses.astype(np.float64), str(path))
     focal = check_focal(float(focal.reshape(-1)[0]), W, str(path))
     n_train = _count(data, "n_train", path, 1, n - 1) if "n_train" in data else min(100, n - 2)

@@ -14,9 +14,9 @@ from tqdm.auto import tqdm
 
 from ...errors import ConfigError, DataError, MitnerfError, Note
 from ..cameras import Cameras
-from ..dataset import Split, box_downscale
+from ..dataset import Dataset, Split, box_downscale
 from ..lens import COEFFICIENTS, fold_radius, jacobian, undistort
-from .common import as_rgba, check_focal, check_memory, image_size, number, read_image
+from .common import as_rgba, check_focal, check_memory, image_size, number, read_image, read_meta
 
 HOLDOUT = 8
 """Where a capture names no split, image ``i`` is a test view when ``i % 8 == 0`` (NeRF's LLFF protocol) and
@@ -76,10 +76,9 @@ def check_lens(cameras: Cameras, where: str) -> None:
         edge = np.concatenate([np.c_[u, np.full(W, 0.5)], np.c_[u, np.full(W, H - 0.5)],
                                np.c_[np.full(H, 0.5), v], np.c_[np.full(H, W - 0.5), v]])
         try:
-            xy = undistort((edge - [cx, cy]) / [fx, fy], k, 1e-9 / max(fx, fy))
+            J = jacobian(undistort((edge - [cx, cy]) / [fx, fy], k, 1e-9 / max(fx, fy)), k)
         except MitnerfError:
-            xy = None
-        J = None if xy is None else jacobian(xy, k)
+            J = None
         if J is None or not np.all(J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0] > 0):
             raise DataError(f"{where}: frame {i}'s lens distortion ({named}) cannot be inverted at the image's edge; "
                             "check the coefficients and that they belong to these focal lengths")
@@ -152,6 +151,20 @@ def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] 
         small = box_downscale(rgba[None], downscale, cols)[0]
         color[i], alpha[i] = small[..., :3], small[..., 3]
     return color, alpha
+
+
+def capture_dataset(path: Path, fmt: str, views: Split, split: dict, downscale: int, near_far, **info) -> Dataset:
+    """The dataset of a capture's ``views`` cut into ``split`` (indices per split); its meta: mitnerf.json's where there
+    is one (its near and far first, else ``near_far()``), with ``format``, ``scene``, ``info`` and the
+    ``downscale`` (when > 1)."""
+    meta = read_meta(path)
+    meta.setdefault("format", fmt)
+    meta.setdefault("scene", path.name)
+    meta.update(info)
+    if downscale > 1:
+        meta["downscale"] = downscale
+    near, far = (meta["near"], meta["far"]) if "near" in meta and "far" in meta else near_far()
+    return Dataset({s: views.subset(i) for s, i in split.items()}, float(near), float(far), meta)
 
 
 def layout(poses: np.ndarray) -> str:

@@ -26,12 +26,11 @@ from scipy.spatial.transform import Rotation
 
 from ...errors import DataError
 from ..cameras import Cameras
-from ..color import to_uint8
 from ..dataset import Dataset, Split
-from .capture import (absent, check_downscale, check_intrinsics, check_lens, hold_out, image_folder, layout,
-                      near_far, read_views, warn_skipped)
+from .capture import (absent, capture_dataset, check_downscale, check_intrinsics, check_lens, hold_out, image_folder,
+                      layout, near_far, read_views, warn_skipped)
 from .colmap_files import Model, read_model, write_model
-from .common import check_poses, image_size, read_meta, write_meta
+from .common import check_poses, image_size, write_meta, write_png
 
 PARAMETERS = {"SIMPLE_PINHOLE": "f cx cy", "PINHOLE": "fx fy cx cy", "SIMPLE_RADIAL": "f cx cy k1",
               "RADIAL": "f cx cy k1 k2", "OPENCV": "fx fy cx cy k1 k2 p1 p2",
@@ -109,26 +108,19 @@ def read_colmap(path: str | Path, downscale: int = 1) -> Dataset:
     box = max(1, downscale // N)
     color, alpha = read_views([paths[i] for i in keep], box, str(images), scale_to=(H, W))
     cams = cams.downscaled(box) if box > 1 else cams
-    meta = read_meta(path)
-    meta.setdefault("format", "colmap")
-    meta.setdefault("scene", path.name)
-    meta["layout"] = layout(poses)
-    if N * box > 1:
-        meta["downscale"] = N * box
     bounds = view_bounds(cams, model.points, where)
-    if bounds is not None:
-        meta["bounds"] = bounds.tolist()
-        meta["points_bounds"] = np.percentile(model.points, [0.1, 99.9], axis=0).tolist()
-    if "near" in meta and "far" in meta:
-        near, far = meta["near"], meta["far"]
-    elif bounds is not None:
-        near, far = near_far(cams, bounds)
-    else:
-        raise DataError(f"{where} has no 3D points in front of its cameras, so the scene's depth is unknown; "
-                        "triangulate points (`colmap point_triangulator`)")
-    views = Split(cams, color, alpha)
+    info = {} if bounds is None else {"bounds": bounds.tolist(),
+                                      "points_bounds": np.percentile(model.points, [0.1, 99.9], axis=0).tolist()}
+
+    def depth_range():
+        if bounds is None:
+            raise DataError(f"{where} has no 3D points in front of its cameras, so the scene's depth is unknown; "
+                            "triangulate points (`colmap point_triangulator`)")
+        return near_far(cams, bounds)
+    ds = capture_dataset(path, "colmap", Split(cams, color, alpha), split, N * box, depth_range, layout=layout(poses),
+                         **info)
     warn_skipped(where, [model.images[i][0] for i in sorted(gone)], len(paths))
-    return Dataset({k: views.subset(i) for k, i in split.items()}, float(near), float(far), meta)
+    return ds
 
 
 def camera_pose(q: np.ndarray, t: np.ndarray, name: str, where: str) -> np.ndarray:
@@ -165,8 +157,6 @@ def view_bounds(cams: Cameras, points: np.ndarray, where: str) -> np.ndarray | N
 
 def write_colmap(dataset: Dataset, folder: Path, binary: bool = False) -> None:
     """Write ``dataset`` (3D) as a COLMAP folder (module docstring)."""
-    import imageio.v3 as iio
-
     if dataset.dim != 3:
         raise DataError("the COLMAP format holds 3D captures; use --format nerf2d or nerfstudio for 2D scenes")
     views = Split.concatenate(list(dataset.splits.values()))
@@ -191,6 +181,6 @@ def write_colmap(dataset: Dataset, folder: Path, binary: bool = False) -> None:
         tracks = list(zip(i.tolist(), (u + 0.5).tolist(), (v + 0.5).tolist()))
     (folder / "images").mkdir()
     for i, img in enumerate(views.target(dataset.background)):
-        iio.imwrite(folder / "images" / shots[i][0], to_uint8(img))
+        write_png(folder / "images" / shots[i][0], img)
     write_model(folder / "sparse" / "0", Model(cameras, shots, points), binary, tracks)
     write_meta(folder, dataset, "colmap")

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..._io import available_memory
 from ...errors import DataError
+from ..color import to_uint8
 
 META = "mitnerf.json"
 MAX_SIDE = 16384
@@ -195,6 +196,13 @@ def read_image(path: Path) -> np.ndarray:
     return out
 
 
+def write_png(path: Path, image: np.ndarray) -> None:
+    """``image`` (floats in [0, 1], or a mask) as an 8-bit PNG, what :func:`read_image` reads back."""
+    import imageio.v3 as iio
+
+    iio.imwrite(path, to_uint8(image))
+
+
 def as_rgba(img: np.ndarray) -> np.ndarray:
     """Grey / grey+alpha / RGB / RGBA -> ``[H, W, 4]`` (alpha 1 where there is none)."""
     if img.ndim == 2:
@@ -205,15 +213,21 @@ def as_rgba(img: np.ndarray) -> np.ndarray:
     return np.concatenate([rgb, alpha], -1).astype(np.float32)
 
 
+@contextlib.contextmanager
+def _array_file(path: Path, where: str | None = None, missing: str = "restore it or drop the frame"):
+    """An array file's read, whose failure is one line: the file is missing, or truncated or corrupt."""
+    try:
+        yield
+    except FileNotFoundError:
+        raise DataError(f"{path} is missing; {missing}") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError, SyntaxError, TypeError) as exc:
+        raise DataError(f"{where or path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+
+
 def read_npz(path: Path, where: str | None = None, keys: list[str] | None = None) -> dict[str, np.ndarray]:
     """The arrays ``keys`` (all if None) of an ``.npz`` file, never unpickled."""
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return {k: np.asarray(z[k]) for k in (z.files if keys is None else keys)}
-    except FileNotFoundError:
-        raise DataError(f"{path} is missing; restore it or drop the frame") from None
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
-        raise DataError(f"{where or path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+    with _array_file(path, where), np.load(path, allow_pickle=False) as z:
+        return {k: np.asarray(z[k]) for k in (z.files if keys is None else keys)}
 
 
 def _array_header(f) -> tuple[tuple, np.dtype]:
@@ -228,39 +242,25 @@ def _array_header(f) -> tuple[tuple, np.dtype]:
 def npz_shapes(path: Path) -> dict[str, tuple[tuple, np.dtype]]:
     """``{name: (shape, dtype)}`` of the arrays of an ``.npz`` file, from their headers only
     (nothing is loaded: a file that claims huge arrays is refused before it fills memory)."""
-    try:
-        with zipfile.ZipFile(path) as z:
-            out = {}
-            for info in (i for i in z.infolist() if i.filename.endswith(".npy")):
-                with z.open(info) as f:
-                    out[info.filename[:-4]] = _array_header(f)
-            return out
-    except FileNotFoundError:
-        raise DataError(f"{path} is missing; restore it or drop the frame") from None
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError, SyntaxError, TypeError) as exc:
-        raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+    with _array_file(path), zipfile.ZipFile(path) as z:
+        out = {}
+        for info in (i for i in z.infolist() if i.filename.endswith(".npy")):
+            with z.open(info) as f:
+                out[info.filename[:-4]] = _array_header(f)
+        return out
 
 
 def npy_shape(path: Path) -> tuple[tuple, np.dtype]:
     """``(shape, dtype)`` of an ``.npy`` file from its header alone (a file that claims a huge array is refused
     before it fills memory)."""
-    try:
-        with open(path, "rb") as f:
-            return _array_header(f)
-    except FileNotFoundError:
-        raise DataError(f"{path} is missing; restore it") from None
-    except (OSError, ValueError, EOFError, SyntaxError, TypeError) as exc:
-        raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
+    with _array_file(path, missing="restore it"), open(path, "rb") as f:
+        return _array_header(f)
 
 
 def read_npy(path: Path, shape: tuple, where: str, dtype=np.float32) -> np.ndarray:
     """A float array of ``shape`` (as ``dtype``) from an ``.npy`` file, never unpickled."""
-    try:
+    with _array_file(path):
         a = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise DataError(f"{path} is missing; restore it or drop the frame") from None
-    except (OSError, ValueError, EOFError) as exc:
-        raise DataError(f"{path} is truncated or corrupt ({type(exc).__name__}); replace the file") from None
     if not isinstance(a, np.ndarray) or a.dtype.kind not in "uif" or a.size != int(np.prod(shape)):
         raise DataError(f"{where}: {path.name} holds {getattr(a, 'shape', '?')} {getattr(a, 'dtype', '')} values, "
                         f"expected {shape} numbers; regenerate the file")

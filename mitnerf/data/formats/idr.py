@@ -27,10 +27,9 @@ from scipy.linalg import rq
 
 from ...errors import DataError
 from ..cameras import Cameras
-from ..color import to_uint8
 from ..dataset import Dataset, Split, bounds_from_cameras
-from .capture import IMAGE_SUFFIXES, check_downscale, check_intrinsics, hold_out, read_views
-from .common import check_memory, check_poses, image_size, npz_shapes, read_meta, read_npz, write_meta
+from .capture import IMAGE_SUFFIXES, capture_dataset, check_downscale, check_intrinsics, hold_out, read_views
+from .common import check_memory, check_poses, image_size, npz_shapes, read_npz, write_meta, write_png
 
 CAMERA_FILES = ("cameras_sphere.npz", "cameras.npz")
 MAX_SKEW = 0.05
@@ -89,16 +88,9 @@ def read_idr(path: str | Path, downscale: int = 1) -> Dataset:
     color, alpha = read_views(images, downscale, str(images[0].parent), masks)
     cameras = Cameras(poses, fx, H, W, fy, cx, cy)
     cameras = cameras.downscaled(downscale) if downscale > 1 else cameras
-    meta = read_meta(path)
-    meta.setdefault("format", "idr")
-    meta.setdefault("scene", path.name)
-    meta.update(scale_mat=data["scale_mat_0"].tolist(), masks=masks is not None)
-    if downscale > 1:
-        meta["downscale"] = downscale
-    near, far = (meta["near"], meta["far"]) if "near" in meta and "far" in meta else bounds_from_cameras([cameras], 1.0,
-                                                                                                         0.0)
-    views = Split(cameras, color, alpha)
-    return Dataset({s: views.subset(i) for s, i in hold_out(n, str(path)).items()}, float(near), float(far), meta)
+    return capture_dataset(path, "idr", Split(cameras, color, alpha), hold_out(n, str(path)), downscale,
+                           lambda: bounds_from_cameras([cameras], 1.0, 0.0), scale_mat=data["scale_mat_0"].tolist(),
+                           masks=masks is not None)
 
 
 def _camera(world: np.ndarray, scale: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
@@ -128,8 +120,6 @@ def _camera(world: np.ndarray, scale: np.ndarray, where: str) -> tuple[np.ndarra
 
 def write_idr(dataset: Dataset, folder: Path) -> None:
     """Write ``dataset`` (3D, no lens distortion) as an IDR / NeuS folder with masks (module docstring)."""
-    import imageio.v3 as iio
-
     if dataset.dim != 3:
         raise DataError("the IDR format holds 3D captures; use --format nerf2d or nerfstudio for 2D scenes")
     views = Split.concatenate(list(dataset.splits.values()))
@@ -149,6 +139,6 @@ def write_idr(dataset: Dataset, folder: Path) -> None:
     a = views.alpha[..., None]
     straight = np.where(a > 0, views.color / np.maximum(a, 1e-8), np.asarray(dataset.background, np.float32))
     for i in range(len(c)):
-        iio.imwrite(folder / "image" / f"{i:06d}.png", to_uint8(straight[i]))
-        iio.imwrite(folder / "mask" / f"{i:06d}.png", to_uint8(views.alpha[i]))
+        write_png(folder / "image" / f"{i:06d}.png", straight[i])
+        write_png(folder / "mask" / f"{i:06d}.png", views.alpha[i])
     write_meta(folder, Dataset(dataset.splits, dataset.near / r, dataset.far / r, dataset.meta), "idr")

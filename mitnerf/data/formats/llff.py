@@ -25,11 +25,10 @@ import numpy as np
 
 from ...errors import DataError
 from ..cameras import Cameras
-from ..color import to_uint8
 from ..dataset import Dataset, Split
-from .capture import (IMAGE_SUFFIXES, MAX_VIEWS, check_downscale, depth_bounds, hold_out, image_folder, layout,
-                      near_far, read_views)
-from .common import check_focal, check_poses, image_size, integer, npy_shape, read_meta, read_npy, write_meta
+from .capture import (IMAGE_SUFFIXES, MAX_VIEWS, capture_dataset, check_downscale, depth_bounds, hold_out,
+                      image_folder, layout, near_far, read_views)
+from .common import check_focal, check_poses, image_size, integer, npy_shape, read_npy, write_meta, write_png
 
 
 def read_llff(path: str | Path, downscale: int = 1) -> Dataset:
@@ -70,21 +69,12 @@ def read_llff(path: str | Path, downscale: int = 1) -> Dataset:
     cams = Cameras(poses, focal * W / W0, H, W, focal * H / H0)
     color, alpha = read_views(files, box, str(folder))
     cams = cams.downscaled(box) if box > 1 else cams
-    meta = read_meta(path)
-    meta.setdefault("format", "llff")
-    meta.setdefault("scene", path.name)
-    meta.update(bounds=bounds.tolist(), layout=layout(poses))
-    if N * box > 1:
-        meta["downscale"] = N * box
-    near, far = (meta["near"], meta["far"]) if "near" in meta and "far" in meta else near_far(cams, bounds)
-    views = Split(cams, color, alpha)
-    return Dataset({s: views.subset(i) for s, i in hold_out(n, str(path)).items()}, float(near), float(far), meta)
+    return capture_dataset(path, "llff", Split(cams, color, alpha), hold_out(n, str(path)), N * box,
+                           lambda: near_far(cams, bounds), bounds=bounds.tolist(), layout=layout(poses))
 
 
 def write_llff(dataset: Dataset, folder: Path) -> None:
     """Write ``dataset`` (3D, pinhole views with square pixels and centred principal points) as an LLFF folder."""
-    import imageio.v3 as iio
-
     if dataset.dim != 3:
         raise DataError("the LLFF format holds 3D captures; use --format nerf2d or nerfstudio for 2D scenes")
     views = Split.concatenate(list(dataset.splits.values()))
@@ -98,5 +88,5 @@ def write_llff(dataset: Dataset, folder: Path) -> None:
     np.save(folder / "poses_bounds.npy", np.c_[m.reshape(n, 15), depth_bounds(views, dataset.near, dataset.far)])
     (folder / "images").mkdir()
     for i, img in enumerate(views.target(dataset.background)):
-        iio.imwrite(folder / "images" / f"{i:04d}.png", to_uint8(img))
+        write_png(folder / "images" / f"{i:04d}.png", img)
     write_meta(folder, dataset, "llff")

@@ -20,17 +20,15 @@ from tqdm.auto import tqdm
 
 from ...errors import DataError
 from ..cameras import Cameras
-from ..color import display_color, to_uint8
+from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
 from .capture import check_downscale
 from .common import (as_rgba, check_focal, check_memory, get, image_size, read_image, read_poses,
-                     read_json, read_meta, read_npz, write_meta)
+                     read_json, read_meta, read_npz, write_meta, write_png)
 
 
 def write_nerf2d(dataset: Dataset, folder: Path) -> None:
     """Write ``dataset`` (2D) into the (new, empty) ``folder``."""
-    import imageio.v3 as iio
-
     if dataset.dim != 2:
         raise DataError("the NeRF2D format holds 2D datasets only; use --format blender or nerfstudio for 3D")
     if not all(s.cameras.simple for s in dataset.splits.values()):
@@ -46,7 +44,7 @@ def write_nerf2d(dataset: Dataset, folder: Path) -> None:
         depth = (None if split.depth is None                   # -1 on a miss
                  else np.where(np.isfinite(split.depth), split.depth, -1.0).astype(np.float32))
         for i in range(len(split)):
-            iio.imwrite(d / f"cam-{i}.png", to_uint8(np.concatenate([split.color[i], split.alpha[i][..., None]], -1)))
+            write_png(d / f"cam-{i}.png", np.concatenate([split.color[i], split.alpha[i][..., None]], -1))
             extra = {k: v[i] for k, v in (("depth_map", depth), ("mask", split.mask), ("rgb_linear", split.linear))
                      if v is not None}
             np.savez(d / f"cam-{i}.npz", intrinsic_mat=K, alpha=split.alpha[i], **extra)

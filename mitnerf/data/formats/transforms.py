@@ -41,12 +41,12 @@ import numpy as np
 
 from ...errors import DataError
 from ..cameras import Cameras
-from ..color import display_color, to_uint8
+from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras, box_downscale
 from ..lens import COEFFICIENTS, MODELS
 from .capture import absent, check_downscale, check_intrinsics, check_lens, read_views, warn_skipped
 from .common import (as_rgba, check_focal, check_memory, get, image_size, number, read_image, read_poses, read_json,
-                     read_meta, read_npy, write_meta)
+                     read_meta, read_npy, write_meta, write_png)
 
 NS_DEPTH_UNIT = 1e-3
 
@@ -57,8 +57,6 @@ def _straight(split: Split, i: int) -> np.ndarray:
 
 
 def write_blender(dataset: Dataset, folder: Path) -> None:
-    import imageio.v3 as iio
-
     if dataset.dim != 3:
         raise DataError("the Blender format holds 3D datasets; use --format nerf2d or nerfstudio for 2D scenes")
     for name, split in dataset.splits.items():
@@ -69,7 +67,7 @@ def write_blender(dataset: Dataset, folder: Path) -> None:
         frames = []
         for i in range(len(split)):
             stem = f"{name}/r_{i}"
-            iio.imwrite(folder / f"{stem}.png", to_uint8(_straight(split, i)))
+            write_png(folder / f"{stem}.png", _straight(split, i))
             frame = {"file_path": f"./{stem}", "transform_matrix": c.poses[i].tolist()}
             if split.depth is not None:
                 np.save(folder / f"{stem}_depth.npy", np.where(np.isfinite(split.depth[i]), split.depth[i], 0.0)
@@ -115,8 +113,6 @@ def pose_3d_to_2d(M: np.ndarray) -> np.ndarray:
 
 
 def write_nerfstudio(dataset: Dataset, folder: Path) -> None:
-    import imageio.v3 as iio
-
     for sub in ("images", "depths", "masks"):
         (folder / sub).mkdir()
     cams = [s.cameras for s in dataset.splits.values()]
@@ -135,14 +131,14 @@ def write_nerfstudio(dataset: Dataset, folder: Path) -> None:
         names = []
         for i in range(len(split)):
             stem = f"{name}_{i:04d}"
-            iio.imwrite(folder / "images" / f"{stem}.png", to_uint8(_straight(split, i)))
+            write_png(folder / "images" / f"{stem}.png", _straight(split, i))
             frame = {"file_path": f"images/{stem}.png", "transform_matrix": poses[i].tolist(),
                      **own[len(header["frames"])]}
             if zdepth is not None:
                 np.save(folder / "depths" / f"{stem}.npy", zdepth[i].astype(np.float32))
                 frame["depth_file_path"] = f"depths/{stem}.npy"
             if split.mask is not None:
-                iio.imwrite(folder / "masks" / f"{stem}.png", (split.mask[i] * 255).astype(np.uint8))
+                write_png(folder / "masks" / f"{stem}.png", split.mask[i])
                 frame["mask_path"] = f"masks/{stem}.png"
             header["frames"].append(frame)
             names.append(frame["file_path"])

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import torch
 from torch import nn
 
+from ...fields.base import cell_corners
 from ...fields.grid import TV_SALT, GridConfig, view_basis
 from ...rng import batch_indices
 from .mlp import TwinField, density_activation
@@ -15,17 +14,9 @@ from .mlp import TwinField, density_activation
 
 def lattice_corners(x: torch.Tensor, bound: float, res: int) -> list:
     """``x [n, D]`` -> list of (D integer coordinates [n], weight [n]), in the Dr.Jit corner order."""
-    D = x.shape[-1]
     u = torch.clamp((x / bound + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001)
     i0 = torch.floor(u)
-    frac = u - i0
-    i0 = i0.long()
-    corners = []
-    for c in range(1 << D):
-        bits = [(c >> a) & 1 for a in range(D)]
-        corners.append(([i0[:, a] + bit for a, bit in enumerate(bits)],
-                        math.prod(frac[:, a] if bit else 1.0 - frac[:, a] for a, bit in enumerate(bits))))
-    return corners
+    return list(cell_corners(list(i0.long().unbind(1)), list((u - i0).unbind(1))))
 
 
 def corner_weights(x: torch.Tensor, bound: float, res: int):

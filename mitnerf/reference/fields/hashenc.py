@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import math
-
 import torch
 
+from ...fields.base import cell_corners
 from ...fields.hashenc import PRIMES, HashLayout
 
 
@@ -32,13 +31,9 @@ def hash_encode(table: torch.Tensor, x: torch.Tensor, layout: HashLayout) -> tor
     for level in range(layout.n_levels):
         pos = x * layout.scales[level] + 0.5
         p0 = torch.floor(pos)
-        w1 = pos - p0
-        p0 = p0.long()
         acc = 0.0
-        for corner in range(1 << layout.dim):
-            bits = [(corner >> d) & 1 for d in range(layout.dim)]
-            weight = math.prod(w1[:, d] if bit else 1.0 - w1[:, d] for d, bit in enumerate(bits))
-            base = _entry([p0[:, d] + bit for d, bit in enumerate(bits)], level, layout) * F
+        for key, weight in cell_corners(list(p0.long().unbind(1)), list((pos - p0).unbind(1))):
+            base = _entry(key, level, layout) * F
             acc = acc + torch.stack([table[base + k] for k in range(F)], 1) * weight[:, None]
         out.append(acc)
     return torch.cat(out, dim=1)
