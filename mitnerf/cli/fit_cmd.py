@@ -34,20 +34,20 @@ some ten million rays, so more pixels are seen less than twice each and cost mem
 70 bytes, twice)."""
 
 
-def read_views(path: str, downscale: int | None):
-    """The dataset at ``path``, ``downscale`` times smaller; None: as it is, or as many times smaller as it takes to
-    keep its training pixels under :data:`MAX_TRAIN_PIXELS` (read again so, and said)."""
+def read_views(path: str, downscale: int | None) -> tuple:
+    """``(dataset, what to say)``: the dataset at ``path``, ``downscale`` times smaller; None: as it is, or as many
+    times smaller as it takes to keep its training pixels under :data:`MAX_TRAIN_PIXELS` (read again so; the line
+    that says so, else None)."""
     dataset = load_dataset(path, downscale or 1)
     train = dataset["train"] if "train" in dataset.splits else None
     pixels = 0 if train is None else len(train) * train.cameras.height * train.cameras.width
     if downscale is not None or pixels <= MAX_TRAIN_PIXELS:
-        return dataset
+        return dataset, None
     k = math.ceil(math.sqrt(pixels / MAX_TRAIN_PIXELS))
     smaller = load_dataset(path, int(dataset.meta.get("downscale", 1)) * k)
     c = smaller["train"].cameras
-    print(f"views: read {k} times smaller, {c.width} x {c.height} (the {len(train)} training views hold "
-          f"{pixels / 1e6:.0f} million pixels; --downscale 1 keeps them all)", flush=True)
-    return smaller
+    return smaller, (f"views: read {k} times smaller, {c.width} x {c.height} (the {len(train)} training views hold "
+                     f"{pixels / 1e6:.0f} million pixels; --downscale 1 keeps them all)")
 
 
 @dataclass(kw_only=True)
@@ -103,7 +103,7 @@ RESUMABLE = ("time_budget", "iters", "threads", "progress")
 
 
 def run_fit(args) -> int:
-    resume, cmd = None, parse(args)
+    resume, cmd, said = None, parse(args), []
     if cmd.resume:
         if set(overrides(args)) - set(RESUMABLE) or args.recipe or args.field or cmd.auto or cmd.out:
             raise ConfigError("--resume continues the run as it was, into its own folder; of the other flags it "
@@ -122,16 +122,19 @@ def run_fit(args) -> int:
     else:
         if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")
-        data, dataset = cmd.data, read_views(cmd.data, cmd.downscale)
+        data, (dataset, shrunk) = cmd.data, read_views(cmd.data, cmd.downscale)
         scene, why = scene_from_args(args, dataset)
         recipe = recipe_from_args(args, dataset, scene)
+        said += [shrunk] if shrunk else []
         if dataset.dim == 3:                                            # 2D data is always an object in a box
-            print(f"scene: {SCENE_LABELS[scene]} ({why}; --scene-type chooses)", flush=True)
+            said.append(f"scene: {SCENE_LABELS[scene]} ({why}; --scene-type chooses)")
         backend = cmd.backend or "drjit"
         out_path = Path(cmd.out) if cmd.out else fresh_folder(Path("out"), f"{dataset.name}-{recipe.name.rstrip('+')}")
     check_dataset(dataset, need_test=True)
     out = Output(out_path, "fit", cmd.overwrite, inputs=[data],
                  size=checkpoint_bytes(recipe, dataset.dim))                  # refused before training
+    for line in said:                                                         # said once nothing is refused
+        print(line, flush=True)
     if cmd.auto:
         if args.recipe:
             raise ConfigError("--auto chooses the recipe; drop --recipe (--field limits the search to one family)")

@@ -20,7 +20,7 @@ from ..scenes.registry import get_scene
 from ..train.checkpoint import load_checkpoint
 from ..viz.rigs import plot_mesh_comparison
 from ..viz.paths import PATH_OF, path_cameras
-from ..viz.video import OrbitConfig, orbit_video
+from ..viz.video import OrbitConfig, orbit_cameras, orbit_video
 from ..settings import setting
 from .command import add_command, options, parse
 
@@ -86,10 +86,10 @@ def run(args) -> int:
     if path != "orbit" and not capture:
         raise MitnerfError(f"--path {path} follows the training cameras, which {args.checkpoint} does not record (an "
                            "object's run); pass --path orbit")
+    cams = orbit_cameras(cfg) if path == "orbit" else path_cameras(path, capture, cfg.n_frames, cfg.resolution,
+                                                                   *depth_range(model))     # refused before the line
     print(f"path: {PATH_WORDS[path]} ({'--path' if cfg.path != 'auto' else 'the run is ' + SCENE_WORDS[scene]}; "
           "--path chooses)", flush=True)
-    cams = None if path == "orbit" else path_cameras(path, capture, cfg.n_frames, cfg.resolution,
-                                                     *depth_range(model))
     with target.staged() as tmp:
         video = orbit_video(model.backend, cfg, tmp, render.render_background(), cameras=cams)
         if args.mesh and scene == "object":
