@@ -13,17 +13,19 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from mitnerf.results import record_result
 from mitnerf.train.checkpoint import read_manifest
 from mitnerf.train.config import TrainConfig
 
-ROOT = Path(__file__).resolve().parents[1]
+if __package__:                        # imported as benchmarks.captures (the tests)
+    from ._cli import ROOT, mitnerf, said
+else:                                  # run as python benchmarks/captures.py
+    from _cli import ROOT, mitnerf, said
+
 CAPTURES = {"fern": ("llff/fern", ["--downscale", "8"]), "fox": ("instant_ngp/fox", [])}
 """Each capture's folder under the data folder, and the flags that select its views."""
 ANCHORS = {"fern": [("NeRF", "25.17", "about a day, 1008 x 756", "GPU"), ("Plenoxels", "25.46", "1008 x 756", "GPU")]}
@@ -33,29 +35,22 @@ ANCHORS = {"fern": [("NeRF", "25.17", "about a day, 1008 x 756", "GPU"), ("Pleno
 def fit(name: str, data: Path, budget: float, out: Path) -> dict:
     """Fit one capture with the CLI in a fresh process; its figures, printed lines and command."""
     folder, flags = CAPTURES[name]
-    cmd = [sys.executable, "-m", "mitnerf", "fit", "--data", str(data / folder), *flags, "--time-budget", f"{budget:g}",
-           "--out", str(out / name), "--no-progress"]
+    args = ["fit", "--data", str(data / folder), *flags, "--time-budget", f"{budget:g}", "--out", str(out / name),
+            "--no-progress"]
     load = os.getloadavg()[0]
-    t0 = time.perf_counter()
-    r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
-    wall = time.perf_counter() - t0
-    if r.returncode:
-        sys.exit(f"{name}: `{' '.join(cmd)}` failed: {(r.stderr.strip().splitlines() or ['?'])[-1]}")
-    lines = r.stdout.strip().splitlines()
+    lines, wall = mitnerf(*args)
     metrics = read_manifest(out / name)["metrics"]
-    said = lambda head: next((ln for ln in lines if ln.startswith(head)), "?")       # noqa: E731
     values = {"psnr": metrics["psnr"], "ssim": metrics["ssim"], "train_s": metrics["train_time"],
               "steps": metrics["steps"], "wall_s": wall, "load_before": load, "load_after": os.getloadavg()[0],
-              "scene": said("scene: "), "recipe": re.sub(r"^recipe (\S+):.*", r"\1", said("recipe "))}
-    shown = " ".join(("python" if c == sys.executable else c.replace(str(data), "DATA")) for c in cmd[:-3])
+              "scene": said(lines, "scene: "), "recipe": re.sub(r"^recipe (\S+):.*", r"\1", said(lines, "recipe "))}
+    shown = " ".join(["python -m mitnerf", *(a.replace(str(data), "DATA") for a in args[:-3])])
     return {"values": values, "last": lines[-1], "command": shown}
 
 
 def video(out: Path) -> str:
     """``mitnerf video`` of the fitted fox along its capture's path; its last line."""
-    r = subprocess.run([sys.executable, "-m", "mitnerf", "video", "--checkpoint", str(out / "fox"), "--out",
-                        str(out / "fox-video"), "--image-size", "270"], capture_output=True, text=True, cwd=ROOT)
-    return (r.stdout.strip().splitlines() or ["?"])[-1] if not r.returncode else f"video failed: {r.stderr[-200:]}"
+    lines, _ = mitnerf("video", "--checkpoint", out / "fox", "--out", out / "fox-video", "--image-size", "270")
+    return lines[-1] if lines else "?"
 
 
 def main(argv=None) -> int:

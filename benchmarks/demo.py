@@ -11,26 +11,23 @@ SSIM, IoU, train time) and wall times in ``results.json`` (``demo/bunny``, ``fit
 from __future__ import annotations
 
 import re
-import subprocess
 import sys
-import time
-from pathlib import Path
 
 from mitnerf.results import record_result
 from mitnerf.train.config import TrainConfig
 
-ROOT = Path(__file__).resolve().parents[1]
+if __package__:                        # imported as benchmarks.demo (the tests)
+    from ._cli import ROOT, run, said
+else:                                  # run as python benchmarks/demo.py
+    from _cli import ROOT, run, said
+
 DATA = ROOT / "out" / "datasets" / "bunny"
 
 
-def run(cmd: list[str]) -> tuple[str, str, float]:
-    t0 = time.perf_counter()
-    r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
-    wall = time.perf_counter() - t0
-    if r.returncode:
-        sys.exit(f"{' '.join(cmd)} failed: {r.stderr.strip().splitlines()[-1:]}")
-    lines = r.stdout.strip().splitlines()
-    return next((ln for ln in lines if ln.startswith("recipe ")), "?"), lines[-1], wall
+def first_last(cmd: list[str]) -> tuple[str, str, float]:
+    """``cmd``'s recipe line, its last line and its seconds."""
+    lines, wall = run(cmd)
+    return said(lines, "recipe "), lines[-1], wall
 
 
 def main() -> int:
@@ -38,7 +35,7 @@ def main() -> int:
     for key, cmd in (("demo/bunny", [sys.executable, "examples/fit_bunny.py"]),
                      ("fit/bunny-cli", [sys.executable, "-m", "mitnerf", "fit", "--data", str(DATA), "--time-budget",
                                         "10", "--out", str(ROOT / "out" / "fit_bunny_cli")])):
-        first, last, wall = run(cmd)
+        first, last, wall = first_last(cmd)
         recipe = first[len("recipe "):] if first.startswith("recipe ") else "?"
         psnr = float(re.search(r"test PSNR ([\d.]+) dB", last).group(1))
         values = {"psnr": psnr, "wall_s": wall, "recipe": recipe.split(":")[0]}

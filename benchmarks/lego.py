@@ -17,12 +17,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
-import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+if __package__:                        # imported as benchmarks.lego (the tests)
+    from ._cli import ROOT, mitnerf, said
+else:                                  # run as python benchmarks/lego.py
+    from _cli import ROOT, mitnerf, said
+
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
 PARTS = ("600", "3600")
 ANCHORS = [
@@ -38,16 +40,11 @@ ANCHORS = [
 def fit(data: Path, budget: str) -> dict:
     """``mitnerf fit`` with the time budget and nothing else, in a fresh process: its metrics and its own lines."""
     out = ROOT / "out" / "lego" / budget
-    cmd = [sys.executable, "-m", "mitnerf", "fit", "--data", str(data), "--time-budget", budget, "--out", str(out)]
-    t0 = time.perf_counter()
-    r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
-    wall = time.perf_counter() - t0
-    if r.returncode:
-        sys.exit(f"{' '.join(cmd)} failed: {(r.stderr.strip().splitlines() or ['?'])[-1]}")
+    args = ["fit", "--data", str(data), "--time-budget", budget, "--out", str(out)]
+    lines, wall = mitnerf(*args)
     metrics = json.loads((out / "metrics.json").read_text())
-    lines = r.stdout.strip().splitlines()
-    return {"metrics": metrics, "wall": wall, "first": next((ln for ln in lines if ln.startswith("recipe ")), "?"),
-            "last": lines[-1], "command": " ".join(["python", *cmd[1:]]).replace(str(ROOT) + "/", "").replace(
+    return {"metrics": metrics, "wall": wall, "first": said(lines, "recipe "), "last": lines[-1],
+            "command": " ".join(["python -m mitnerf", *args]).replace(str(ROOT) + "/", "").replace(
                 str(ROOT.parent) + "/", "../")}
 
 

@@ -25,15 +25,17 @@ import json
 import os
 import re
 import shutil
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import imageio.v3 as iio
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+if __package__:                        # imported as benchmarks.poses (the tests)
+    from ._cli import ROOT, mitnerf
+else:                                  # run as python benchmarks/poses.py
+    from _cli import ROOT, mitnerf
+
 FERN = ROOT.parent / "shared" / "data" / "llff" / "fern"
 if not FERN.exists():
     FERN = Path("/work/shared/data/llff/fern")
@@ -50,11 +52,8 @@ def rel(path: Path) -> str:
 def cli(*args: str, ok=(0,)) -> tuple[str, float]:
     """``python -m mitnerf ARGS`` from the repository: (its stdout, seconds); stops the benchmark on an exit status
     not in ``ok``."""
-    t = time.perf_counter()
-    run = subprocess.run([sys.executable, "-m", "mitnerf", *map(str, args)], cwd=ROOT, capture_output=True, text=True)
-    if run.returncode not in ok:
-        raise SystemExit(f"`mitnerf {' '.join(map(str, args))}` failed: {run.stderr.strip()[-500:]}")
-    return run.stdout, time.perf_counter() - t
+    lines, seconds = mitnerf(*args, ok=ok)
+    return "\n".join(lines), seconds
 
 
 def frames(data: Path) -> tuple[list[str], np.ndarray]:

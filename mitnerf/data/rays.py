@@ -11,7 +11,6 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..rng import uniform_np
-from .cameras import Cameras
 
 BACKGROUNDS = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
 """The named constant backgrounds; ``"random"`` draws a colour per training ray (and evaluates over white)."""
@@ -40,16 +39,6 @@ class RaySet:
     def batch(self, index: np.ndarray, seed: int = 0) -> "RaySet":
         """The rays at ``index`` ``[B]``."""
         return RaySet(*(getattr(self, f.name)[index] for f in fields(self)))
-
-
-def view_rays(cameras: Cameras) -> tuple[np.ndarray, np.ndarray]:
-    """Origins and unit directions of every pixel-centre ray, float32 ``[n, H, W, D]``: those of
-    :meth:`Cameras.rays`, rotated a view at a time by one matrix product (to rounding)."""
-    group, local, _ = cameras.local_rays()
-    k = cameras.dim
-    d = np.stack([local[g] @ R.T for g, R in zip(group, cameras.poses[:, :k, :k])])
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    return np.broadcast_to(cameras.origins[:, None, None, :], d.shape).astype(np.float32), d.astype(np.float32)
 
 
 def background_name(background) -> str:

@@ -16,7 +16,7 @@ from tqdm.auto import tqdm
 
 from ..data.dataset import Dataset, Split
 from ..geometry import field_chamfer, mesh_from_ply
-from ..data.rays import background_name, view_rays
+from ..data.rays import background_name
 from ..geometry.outline import outline_iou
 from .metrics import depth_error, ssim
 
@@ -150,7 +150,7 @@ def classify(rgb: np.ndarray, opacity: np.ndarray, split: Split, background) -> 
 
 def render_split(backend, split: Split) -> tuple[dict, float]:
     """Renders of ``split``'s views ``[n, H, W, ...]`` (``eval_spp`` rays per pixel), and the seconds taken."""
-    o, d = view_rays(split.cameras)
+    o, d = (a.astype(np.float32) for a in split.cameras.rays())
     spp, D, t0 = backend.model_cfg.render.eval_spp, o.shape[-1], time.perf_counter()
     fp = split.cameras.footprint().reshape(-1, 2, D) if spp > 1 else None
     out = backend.render(o.reshape(-1, D), d.reshape(-1, D), footprint=fp, spp=spp)

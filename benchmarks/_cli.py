@@ -1,0 +1,33 @@
+"""Benchmarks that measure mitnerf as a user runs it: a command in a fresh process from the repository's root,
+timed with its start-up, its printed lines kept."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(cmd: list, ok=(0,)) -> tuple[list[str], float]:
+    """``cmd`` (strings or paths) from the repository's root: (its stdout lines, seconds); an exit status not in
+    ``ok`` stops the benchmark with the command and its last error line."""
+    cmd = [str(c) for c in cmd]
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    wall = time.perf_counter() - t0
+    if r.returncode not in ok:
+        sys.exit(f"`{' '.join(cmd)}` failed: {(r.stderr.strip().splitlines() or ['?'])[-1]}")
+    return r.stdout.strip().splitlines(), wall
+
+
+def mitnerf(*args, ok=(0,)) -> tuple[list[str], float]:
+    """``python -m mitnerf ARGS``: :func:`run`."""
+    return run([sys.executable, "-m", "mitnerf", *args], ok)
+
+
+def said(lines: list[str], head: str) -> str:
+    """The first printed line that starts with ``head`` (``?`` if none)."""
+    return next((ln for ln in lines if ln.startswith(head)), "?")
