@@ -126,7 +126,7 @@ def pick_scene(dataset: Dataset) -> tuple[str, str]:
     if dataset.dim == 2:
         return "object", "2D data"
     splits = dataset.splits.values()
-    if any(s.mask is not None or bool((s.alpha < 1).any()) for s in splits):
+    if any(s.mask is not None or s.has_alpha for s in splits):
         return "object", "its views have alpha (the object is separated from its background)"
     if "background" in dataset.meta or "kind" in dataset.meta:
         return "object", "the views show an object over a known background"
@@ -163,12 +163,13 @@ def edge_rays(dataset: Dataset) -> tuple[np.ndarray, np.ndarray]:
     """Origins and unit directions ``[m, 3]`` of every camera's border pixels (the extremes of its frustum)."""
     os, ds = [], []
     for s in dataset.splits.values():
-        o, d = s.cameras.rays()
-        border = np.zeros(o.shape[1:3], bool)
+        c = s.cameras
+        group, local, _ = c.local_rays()                               # camera space, per group of intrinsics
+        border = np.zeros((c.height, c.width), bool)
         border[[0, -1], :] = border[:, [0, -1]] = True
-        os.append(o[:, border])
-        ds.append(d[:, border])
-    return np.concatenate(os).reshape(-1, 3), np.concatenate(ds).reshape(-1, 3)
+        ds.append(np.einsum("nij,nbj->nbi", c.poses[:, :3, :3], local[:, border][group]).reshape(-1, 3))
+        os.append(np.repeat(c.origins, int(border.sum()), axis=0))
+    return np.concatenate(os), np.concatenate(ds)
 
 
 def scene_frame(dataset: Dataset, kind: str) -> dict:

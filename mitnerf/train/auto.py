@@ -167,7 +167,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
     trials: list[Trial] = []
 
     def trial(recipe: Recipe, note: str) -> Trial:
-        run = fit(dataset, recipe.copy(), "drjit", progress=False)
+        run = fit(dataset, recipe, "drjit", progress=False)
         val = run.state.history["val_psnr"]
         trials.append(Trial(recipe, run.backend.n_params(), val[-1] if val else -math.inf, run.state.train_time, note))
         if say is not None:

@@ -76,8 +76,10 @@ def resolve_background(recipe: Recipe, dataset: Dataset) -> str:
 def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dict | None = None,
         progress: bool | None = None) -> Run:
     """Train ``recipe`` on ``dataset['train']`` with engine ``backend`` (see the module docstring);
-    ``resume``: the state :func:`~mitnerf.train.checkpoint.load_checkpoint` returned, to continue it."""
-    recipe = recipe.sized(dataset).validate()
+    ``resume``: the state :func:`~mitnerf.train.checkpoint.load_checkpoint` returned, to continue it. Trains a copy
+    of ``recipe`` (:attr:`Run.recipe`: sized for the data, its background and scene settled); ``recipe`` is left
+    as it was."""
+    recipe = recipe.copy().sized(dataset).validate()
     if recipe.model.field in CONDITIONED:
         raise ConfigError(f"a {recipe.model.field} field renders from input views and trains across scenes; "
                           "run `mitnerf experiment pixelnerf`, or pick another --field")
