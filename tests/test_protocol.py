@@ -201,3 +201,14 @@ def test_a_size_set_on_the_recipe_stays():
     args = recipe.model.field_args
     assert (args["resolution"], args["initial_resolution"]) == (65, 17)        # 65 = 16 * 4 + 1: from 17
     assert recipe.model.render.occupancy.march_bins == 117                     # ceil(4 * 64 / 2.2)
+
+
+def test_a_recipe_is_sized_for_cameras_with_a_lens():
+    """Sizing reads the focal lengths of any camera (per-frame intrinsics, distortion): the same lattice as the
+    pinhole views of the same focal (``views_at(555.5)``: 161, the first row of the table above)."""
+    ds = views_at(555.5)
+    cams = ds["train"].cameras
+    lens = Cameras(cams.poses, cams.fx, 2, 2, cams.fy, cams.cx, cams.cy, np.tile([0.01, 0, 0, 0, 0], (3, 1)))
+    split = Split(lens, np.zeros((3, 2, 2, 3), np.float32), np.ones((3, 2, 2), np.float32))
+    sized = get_recipe("grid-3d").sized(Dataset({"train": split, "test": split}, 2.0, 6.0, {"kind": "3d"}))
+    assert sized.model.field_args["resolution"] == 161

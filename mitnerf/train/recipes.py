@@ -76,7 +76,8 @@ class Recipe:
         train = {k: v for k, v in d["train"].items() if k in TrainConfig.__dataclass_fields__}
         sizing = d.get("sizing")
         return cls(d["name"], int(d["dim"]), ModelConfig.from_dict(d["model"]), TrainConfig(**train),
-                   d.get("about", ""), d.get("purpose", ""), None if sizing is None else Sizing(**{**sizing, "fixed": tuple(sizing["fixed"])}))
+                   d.get("about", ""), d.get("purpose", ""),
+                   None if sizing is None else Sizing(**{**sizing, "fixed": tuple(sizing["fixed"])}))
 
     def sized(self, dataset) -> "Recipe":
         """A copy with the sizes :attr:`sizing` takes from ``dataset`` (``self`` where it has none): the finest
@@ -93,12 +94,13 @@ class Recipe:
             top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
         else:
             cams = dataset["train"].cameras
-            footprint = float(np.median(np.linalg.norm(cams.origins, axis=1))) / cams.focal
+            footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
             top = min(2 * dataset.bound / footprint * s.vertices_per_pixel + 1, s.max_resolution)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1
-        sizes = {"resolution": R, "initial_resolution": c + 1, "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)),
-                 "n_coarse": s.samples, "occupancy.resolution": min(128, (R - 1) // 2),
+        sizes = {"resolution": R, "initial_resolution": c + 1,
+                 "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
+                 "occupancy.resolution": min(128, (R - 1) // 2),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
                                                      / (2 * dataset.bound)))}
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
@@ -173,8 +175,8 @@ class Recipe:
         return getattr(self.model.field_config(self.dim), key)
 
     def essence(self) -> dict:
-        """The settings that change what is trained (not progress bars, thread counts or test views, nor the scene, which the
-        data decides like the box); field settings with their defaults filled in, so a setting written at its
+        """The settings that change what is trained (not progress bars, thread counts or test views, nor the scene,
+        which the data decides like the box); field settings with their defaults filled in, so a setting written at its
         default value changes nothing."""
         d = self.to_dict()
         d["model"]["render"] = {k: v for k, v in d["model"]["render"].items() if k not in ("scene", "frame")}
