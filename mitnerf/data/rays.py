@@ -71,6 +71,9 @@ class TrainingRays:
         self.rotations = cams.poses[:, :k, :k]
         self.alpha_says = split.has_alpha
         """Whether coverage tells empty pixels (where it does not, free space is unknown)."""
+        self.hits = None if split.depth is None else \
+            (split.mask if split.mask is not None else np.isfinite(split.depth)).reshape(-1)
+        """Flat: the pixels whose depth hits the object (None without depth), found once, not per batch."""
 
     def __len__(self) -> int:
         return int(np.prod(self.shape))
@@ -100,8 +103,8 @@ class TrainingRays:
         B = len(index)
         depth, hit, free, solid = (np.zeros(B, np.float32) for _ in range(4))
         near = self._neighbours(view, row, col)
-        if s.depth is not None:
-            hits = (s.mask if s.mask is not None else np.isfinite(s.depth)).reshape(-1)
+        if self.hits is not None:
+            hits = self.hits
             hit = hits[index].astype(np.float32)
             depth = np.where(hit > 0, s.depth.reshape(-1)[index], 0.0)
             free = np.where(hits[near], s.depth.reshape(-1)[near], np.inf).min(axis=1)
