@@ -39,9 +39,10 @@ def fit(name: str, data: Path, budget: float, out: Path) -> dict:
             "--no-progress"]
     load = os.getloadavg()[0]
     lines, wall = mitnerf(*args)
-    metrics = read_manifest(out / name)["metrics"]
-    values = {"psnr": metrics["psnr"], "ssim": metrics["ssim"], "train_s": metrics["train_time"],
-              "steps": metrics["steps"], "wall_s": wall, "load_before": load, "load_after": os.getloadavg()[0],
+    manifest = read_manifest(out / name)
+    metrics, (w, h) = manifest["metrics"], manifest["dataset"]["cameras"]["size"]
+    values = {"size": f"{w} x {h}", "psnr": metrics["psnr"], "ssim": metrics["ssim"],
+              "train_s": metrics["train_time"], "steps": metrics["steps"], "wall_s": wall, "load_before": load, "load_after": os.getloadavg()[0],
               "scene": said(lines, "scene: "), "recipe": re.sub(r"^recipe (\S+):.*", r"\1", said(lines, "recipe "))}
     shown = " ".join(["python -m mitnerf", *(a.replace(str(data), "DATA") for a in args[:-3])])
     return {"values": values, "last": lines[-1], "command": shown}
@@ -68,8 +69,8 @@ def main(argv=None) -> int:
         run = fit(name, args.data, args.time_budget, out)
         v = run["values"]
         extra = f"; {video(out)}" if name == "fox" else ""
-        summary = (f"{name}: {run['last']} ({v['steps']} steps; {v['scene']}; load {v['load_before']:.1f} -> "
-                   f"{v['load_after']:.1f}){extra}")
+        summary = (f"{name}: {run['last']} ({v['size']} pixels, {v['steps']} steps; {v['scene']}; load "
+                   f"{v['load_before']:.1f} -> {v['load_after']:.1f}){extra}")
         print(summary)
         record_result(f"{name}/fit", v, summary, run["command"], recipe=v["recipe"], threads=TrainConfig().threads)
     return 0

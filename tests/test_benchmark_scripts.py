@@ -91,7 +91,8 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     metrics = {"psnr": 30.5, "ssim": 0.95, "train_time": 600.2, "steps": 4000, "eval_time": 41.0, "peak_memory": 1.5,
                "views": 200, "background": "white", "recipe": "grid-3d"}
     monkeypatch.setattr(lego, "fit", lambda data, budget: {
-        "metrics": dict(metrics, train_time=float(budget)), "wall": 700.0, "first": "recipe grid-3d: ...",
+        "metrics": dict(metrics, train_time=float(budget)), "size": "400 x 400", "wall": 700.0,
+        "first": "recipe grid-3d: ...",
         "last": "test PSNR 30.50 dB", "command": f"python -m mitnerf fit --data D --time-budget {budget}"})
     assert lego.main(["--data", str(tmp_path), "--parts", "600"]) == 0
     entry = load_results()["lego/600"]
@@ -100,4 +101,5 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     from benchmarks import report
 
     table = report.lego_table(load_results())
-    assert "| `lego/600` (grid-3d) | 30.50 | 0.950 | 600 s, 4000 steps |" in table and "| NeRF (published) | 32.54 |" in table
+    assert "| `lego/600` (grid-3d) | 400 x 400 | 30.50 | 0.950 | 600 s, 4000 steps |" in table
+    assert "| NeRF (published) | 800 x 800 | 32.54 |" in table and "on 200 views of 400 x 400 over" in entry["summary"]
