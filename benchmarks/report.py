@@ -103,8 +103,8 @@ def captures_table(results: dict, name: str) -> str:
     lines = ["| run | views | test PSNR [dB] | SSIM | training | hardware |", "|---|---|---|---|---|---|",
              f"| `{name}/fit` ({v['recipe']}) | {v.get('size', '?')} | {v['psnr']:.2f} | {v['ssim']:.3f} | {v['train_s']:.0f} s, {v['steps']} "
              f"steps | {machine_line(e['machine'])} |"]
-    lines += [f"| {who} (published) | {when.split(', ')[-1] if ', ' in when else ''} | {db} | | {when} | {gpu} |"
-              for who, db, when, gpu in ANCHORS[name]]
+    size = lambda when: (re.findall(r"\d+ x \d+", when) or [""])[0]          # noqa: E731
+    lines += [f"| {who} (published) | {size(when)} | {db} | | {when} | {gpu} |" for who, db, when, gpu in ANCHORS[name]]
     return "\n".join(lines) + "\n"
 
 

@@ -212,3 +212,20 @@ def test_a_recipe_is_sized_for_cameras_with_a_lens():
     split = Split(lens, np.zeros((3, 2, 2, 3), np.float32), np.ones((3, 2, 2), np.float32))
     sized = get_recipe("grid-3d").sized(Dataset({"train": split, "test": split}, 2.0, 6.0, {"kind": "3d"}))
     assert sized.model.field_args["resolution"] == 161
+
+
+def test_views_are_read_at_their_own_size_up_to_the_cap(vase_small, tmp_path, monkeypatch):
+    """6 training views of 24 x 24 hold 3456 pixels: under the cap they are read as they are; with the cap at 1000,
+    ceil(sqrt(3456 / 1000)) = 2 times smaller (12 x 12) and said; --downscale overrides the cap."""
+    from mitnerf.cli import fit_cmd
+    from mitnerf.data.formats import save_dataset
+
+    save_dataset(vase_small, tmp_path / "ds", "blender")
+    ds, line = fit_cmd.read_views(tmp_path / "ds", None)
+    assert (ds["train"].cameras.width, ds["test"].cameras.width, line) == (24, 24, None)
+    monkeypatch.setattr(fit_cmd, "MAX_TRAIN_PIXELS", 1000)
+    ds, line = fit_cmd.read_views(tmp_path / "ds", None)
+    assert (ds["train"].cameras.width, ds["test"].cameras.width) == (12, 12)
+    assert line == "views: read 2 times smaller, 12 x 12 (the 6 training views hold 0 million pixels; --downscale 1 " \
+                   "keeps them all)"
+    assert fit_cmd.read_views(tmp_path / "ds", 1)[0]["train"].cameras.width == 24
