@@ -5,8 +5,17 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from dataclasses import dataclass
 
-from ..settings import add_flags, check
+from ..settings import add_flags, check, setting
+
+
+@dataclass(kw_only=True)
+class Writes:
+    """What every command that writes an output folder takes."""
+
+    overwrite: bool = setting(False, flag="--overwrite")
+    """Write into a folder that holds other files (they are left alone)."""
 
 
 def add_command(sub, name: str, cls, run, *configs, help: str) -> argparse.ArgumentParser:

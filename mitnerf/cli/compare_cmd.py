@@ -13,12 +13,12 @@ from ..experiments.compare import compare, write
 from ..train.fit import check_dataset
 from ..settings import setting
 from ..train.recipes import DEFAULT, RECIPES, get_recipe
-from .command import add_command, parse
+from .command import Writes, add_command, parse
 from .fit_cmd import fresh_folder
 
 
 @dataclass(kw_only=True)
-class CompareCommand:
+class CompareCommand(Writes):
     """``mitnerf compare``: recipes side by side on a dataset."""
 
     data: str = setting(flag="--data", metavar="DIR")
@@ -31,8 +31,6 @@ class CompareCommand:
     """Seconds of training for every recipe (the same for all: a fair race)."""
     out: str | None = setting(None, flag="--out", metavar="DIR", shown="a new folder out/<data>-compare")
     """Folder for the chart, the table and the report."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
 
 
 def register(sub) -> None:

@@ -22,19 +22,17 @@ from ..experiments.reproduction import REPRODUCE, record, write
 from ..experiments.sweep import Config, build_rows, parse_budget, run as sweep_rows
 from ..results import load_results
 from ..settings import check, check_value, field_named, parse_set, setting
-from .command import add_command, options, parse
+from .command import Writes, add_command, options, parse
 
 
 @dataclass(kw_only=True)
-class ExperimentCommand:
+class ExperimentCommand(Writes):
     """``mitnerf experiment``: one experiment of the source reports, or all of them."""
 
     name: str = setting(flag="name", choices=(*EXPERIMENTS, "all"))
     """The experiment (all: the four that test the source reports, then REPRODUCTION.md)."""
     out: str = setting(flag="--out", metavar="DIR")
     """Output folder (CSV, figures, report.md)."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
     quick: bool = setting(False, flag="--quick")
     """A smoke run of a few steps: its report draws no conclusions."""
     seed: int = setting(0, lo=0, hi=2 ** 31, flag="--seed")
@@ -42,13 +40,11 @@ class ExperimentCommand:
 
 
 @dataclass(kw_only=True)
-class SweepCommand:
+class SweepCommand(Writes):
     """``mitnerf sweep``: speed against accuracy (the sweep's options: :class:`~mitnerf.experiments.sweep.Config`)."""
 
     out: str = setting(flag="--out", metavar="DIR")
     """Output folder (sweep.csv, sweep.md, pareto.png); a rerun skips the finished rows."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
 
 
 def register(sub) -> None:

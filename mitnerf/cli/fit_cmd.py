@@ -25,7 +25,7 @@ from ..train.recipes import DEFAULT, RECIPES
 from ..train.report import write_fit
 from ..settings import setting
 from .args import add_recipe_flags, overrides, recipe_from_args, scene_from_args
-from .command import add_command, parse
+from .command import Writes, add_command, parse
 
 
 MAX_TRAIN_PIXELS = 6_000_000
@@ -51,15 +51,13 @@ def read_views(path: str, downscale: int | None) -> tuple:
 
 
 @dataclass(kw_only=True)
-class FitCommand:
+class FitCommand(Writes):
     """``mitnerf fit``: train a recipe on a dataset, evaluate it on the test views, write it."""
 
     data: str | None = setting(None, flag="--data", metavar="DIR", shown="none; give --data or --resume")
     """Dataset folder (NeRF2D, Blender, nerfstudio, instant-ngp) or tiny-NeRF .npz."""
     out: str | None = setting(None, flag="--out", metavar="DIR", shown="a new folder out/<data>-<recipe>")
     """Folder for the checkpoint, metrics and figures."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into an --out folder that holds other files (they are left alone)."""
     resume: str | None = setting(None, flag="--resume", metavar="RUN", shown="none")
     """Continue a run from its folder: an interrupted one to its end, a finished one for --time-budget seconds
     (or --iters steps) more."""
