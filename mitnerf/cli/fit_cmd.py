@@ -17,15 +17,14 @@ from ..data.formats import load_dataset
 from ..errors import ConfigError, Terminated
 from ..results import load_results
 from ..train.auto import AutoConfig, choose_recipe
-from ..train.checkpoint import checkpoint_bytes, load_checkpoint, read_manifest
+from ..train.checkpoint import checkpoint_bytes, load_checkpoint, read_manifest, write_fit
 from ..data.rays import background_name
 from ..train.fit import check_dataset, fit, resolve_background
 from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
-from ..train.report import write_fit
 from ..settings import setting
-from .args import add_recipe_flags, overrides, recipe_from_args, scene_from_args
-from .command import Writes, add_command, parse
+from .args import (Writes, add_command, add_recipe_flags, overrides, parse, recipe_from_args,
+                   scene_from_args)
 
 
 MAX_TRAIN_PIXELS = 6_000_000
