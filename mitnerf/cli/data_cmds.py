@@ -18,7 +18,7 @@ from ..scenes.registry import get_scene
 from ..settings import setting, show_value
 from ..viz.rigs import plot_rig_2d, plot_rig_3d
 from ..viz.views import split_figures
-from .command import Writes, add_command, options, parse
+from .args import Writes, add_command, options, parse
 
 
 @dataclass(kw_only=True)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from .._io import Output
 from ..data.sfm import SfmConfig, find_images, need_pycolmap, pose_capture
 from ..settings import setting
-from .command import Writes, add_command, options, parse
+from .args import Writes, add_command, options, parse
 
 SIFT_BYTES = 200
 """Bytes the feature database holds per SIFT feature (its descriptor, keypoint and index)."""

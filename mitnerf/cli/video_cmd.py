@@ -22,7 +22,7 @@ from ..viz.rigs import plot_mesh_comparison
 from ..viz.paths import PATH_OF, path_cameras
 from ..viz.video import OrbitConfig, orbit_cameras, orbit_video
 from ..settings import setting
-from .command import Writes, add_command, options, parse
+from .args import Writes, add_command, options, parse
 
 
 def parse_level(text: str) -> str:
