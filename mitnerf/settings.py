@@ -103,13 +103,12 @@ def check_value(cls, f: dataclasses.Field, value, prefix: str = ""):
         if isinstance(value, dict):
             value = kind(**value)
         if not isinstance(value, kind):
-            raise ConfigError(f"{what} must be a group of settings, got {json.dumps(value, default=str)[:40]}")
+            raise ConfigError(f"{what} must be a group of settings, got {_got(value)}")
         check(value, f"{prefix}{f.name}.")
         return value
     if kind == "tuple":
         if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{what} must be a list, got {json.dumps(value, default=str)[:40]}; e.g. "
-                              f"{json.dumps(list(default_of(f) or ()))}")
+            raise ConfigError(f"{what} must be a list, got {_got(value)}; e.g. {json.dumps(list(default_of(f) or ()))}")
         if choices is not None:
             bad = [v for v in value if v not in choices]
             if bad:
@@ -117,26 +116,25 @@ def check_value(cls, f: dataclasses.Field, value, prefix: str = ""):
             return tuple(value)
         if _of_text(f):
             if not all(isinstance(v, str) for v in value):
-                raise ConfigError(f"{what} must be a list of names, got {json.dumps(value, default=str)[:40]}")
+                raise ConfigError(f"{what} must be a list of names, got {_got(value)}")
             return tuple(value)
         return tuple(_number(what, v, s, integer=False) for v in value)
-    if kind == "dict":
-        if not isinstance(value, dict):
-            raise ConfigError(f"{what} must be a group of settings, got {json.dumps(value, default=str)[:40]}")
-        return value
     if choices is not None:
         if value not in choices:
             raise ConfigError(f"{what} must be one of {', '.join(map(str, choices))}, got {value!r}")
         return value
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise ConfigError(f"{what} must be true or false, got {json.dumps(value, default=str)[:40]}")
-        return value
-    if kind in ("int", "float"):
-        return _number(what, value, s, integer=kind == "int")
-    if kind == "str" and not isinstance(value, str):
-        raise ConfigError(f"{what} must be a string, got {json.dumps(value, default=str)[:40]}")
-    return value
+    if kind in _TYPES and not isinstance(value, _TYPES[kind][0]):
+        raise ConfigError(f"{what} must be {_TYPES[kind][1]}, got {_got(value)}")
+    return _number(what, value, s, integer=kind == "int") if kind in ("int", "float") else value
+
+
+_TYPES = {"dict": (dict, "a group of settings"), "bool": (bool, "true or false"), "str": (str, "a string")}
+"""The kinds of setting checked by type alone: the type, and what an error says the value must be."""
+
+
+def _got(value) -> str:
+    """A bad value as an error quotes it (JSON, cut to 40 characters)."""
+    return json.dumps(value, default=str)[:40]
 
 
 def _of_text(f: dataclasses.Field) -> bool:
@@ -148,8 +146,7 @@ def _of_text(f: dataclasses.Field) -> bool:
 
 def _number(what: str, value, s: dict, integer: bool):
     if isinstance(value, bool) or not isinstance(value, (int, float)) or (integer and not float(value).is_integer()):
-        raise ConfigError(f"{what} must be {'a whole' if integer else 'a'} number, got "
-                          f"{json.dumps(value, default=str)[:40]}")
+        raise ConfigError(f"{what} must be {'a whole' if integer else 'a'} number, got {_got(value)}")
     if not math.isfinite(value):
         raise ConfigError(f"{what} must be a finite number, got {value}")
     lo, hi, above = s.get("lo"), s.get("hi"), s.get("above")
@@ -209,19 +206,14 @@ def flag_type(cls, f: dataclasses.Field):
             return check_value(cls, f, value)
         except (ConfigError, ValueError) as exc:
             raise argparse.ArgumentTypeError(str(exc).replace(f"{name_of(f)} ", "it ", 1)) from None
-    parse.__name__ = _shape(types_of(cls)[f.name])[0] if isinstance(_shape(types_of(cls)[f.name])[0], str) \
-        else "value"
+    kind = _shape(types_of(cls)[f.name])[0]
+    parse.__name__ = kind if isinstance(kind, str) else "value"
     return parse
 
 
 def _from_text(cls, f, text: str):
     kind = _shape(types_of(cls)[f.name])[0]
-    if kind == "int":
-        v = float(text)
-        if not v.is_integer():
-            raise ConfigError(f"{name_of(f)} must be a whole number, got {text!r}")
-        return int(v)
-    if kind == "float":
+    if kind in ("int", "float"):                # a whole number checked as one by check_value
         return float(text)
     if kind == "tuple":
         return tuple(float(x) for x in text.split(","))
@@ -235,8 +227,8 @@ def add_flags(group, cls, *, prefix: str = "", dest: str = "", overrides: bool =
     then comes from elsewhere, a recipe) and ``shown(key)`` gives the default the help names. Returns
     ``{flag: key}``."""
     out = {}
-    for f in dataclasses.fields(cls):
-        s, key = spec(f), f"{prefix}{f.name}"
+    for f in sorted(dataclasses.fields(cls), key=lambda f: f.name not in vars(cls).get("__annotations__", {})):
+        s, key = spec(f), f"{prefix}{f.name}"                   # a class's own fields first, then its bases'
         if not s.get("flag") or (seen is not None and s["flag"] in seen):
             continue
         kind, optional, choices = _shape(types_of(cls)[f.name])

@@ -18,11 +18,11 @@ from ..scenes.registry import get_scene
 from ..settings import setting, show_value
 from ..viz.rigs import plot_rig_2d, plot_rig_3d
 from ..viz.views import split_figures
-from .command import add_command, options, parse
+from .args import Writes, add_command, options, parse
 
 
 @dataclass(kw_only=True)
-class DatasetCommand:
+class DatasetCommand(Writes):
     """``mitnerf dataset``: render a dataset of a scene (the rig's options: :class:`~mitnerf.data.rig.RigConfig`)."""
 
     scene: str | None = setting(None, flag="--scene", metavar="NAME|FILE.xml", shown="none; give --scene or "
@@ -33,8 +33,6 @@ class DatasetCommand:
     """A JSON file holding a ring of [x, y] points: a 2D scene of your own."""
     out: str = setting(flag="--out", metavar="DIR")
     """Output folder: new, empty, or an earlier dataset of mitnerf's."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
     noise: float = setting(1.0, lo=0, hi=100, flag="--noise")
     """Scale of all placement noise: 1 is radius 0.1, angle 2 degrees, position 0.05, look 1 degree."""
     spp: int | None = setting(None, lo=1, hi=1 << 16, flag="--spp", unit="samples per pixel",
@@ -58,15 +56,13 @@ class DatasetCommand:
 
 
 @dataclass(kw_only=True)
-class ShowCommand:
+class ShowCommand(Writes):
     """``mitnerf show``: the pictures of a dataset."""
 
     dataset: str = setting(flag="dataset")
     """Dataset folder (or tiny-NeRF .npz)."""
     out: str | None = setting(None, flag="--out", metavar="DIR", shown="out/show/<the dataset's name>")
     """Where to write the PNGs."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
 
 
 def rig_default(key: str) -> str:

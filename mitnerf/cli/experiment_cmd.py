@@ -1,10 +1,7 @@
-"""``mitnerf experiment NAME --out DIR [--quick] [--seed S] [--set KEY=VALUE ...]``: one experiment into ``DIR``
-(CSV, figures, ``report.md``); ``--set`` changes one field of its ``Config``. A full run (not ``--quick``) of one
-that tests the source reports records its rows, command and machine in the results file; ``experiment all`` runs
-those at full size, each into ``DIR/<name>``, and writes ``DIR/REPRODUCTION.md``.
-
-``mitnerf sweep --out DIR [--quick] [--workers N] [--executor local|dask] ...``: speed against accuracy; writes
-``sweep.csv``, ``sweep.md`` and ``pareto.png`` into ``DIR``; running it again skips the finished rows."""
+"""``mitnerf experiment NAME --out DIR [--quick] [--seed S] [--set KEY=VALUE ...]`` (:mod:`mitnerf.experiments`; a
+full run of one of :data:`~mitnerf.experiments.reproduction.REPRODUCE` records its rows in the results file, and
+``experiment all`` runs them all: :mod:`~mitnerf.experiments.reproduction`) and ``mitnerf sweep --out DIR ...``
+(:mod:`~mitnerf.experiments.sweep`)."""
 
 from __future__ import annotations
 
@@ -22,19 +19,17 @@ from ..experiments.reproduction import REPRODUCE, record, write
 from ..experiments.sweep import Config, build_rows, parse_budget, run as sweep_rows
 from ..results import load_results
 from ..settings import check, check_value, field_named, parse_set, setting
-from .command import add_command, options, parse
+from .args import Writes, add_command, options, parse
 
 
 @dataclass(kw_only=True)
-class ExperimentCommand:
+class ExperimentCommand(Writes):
     """``mitnerf experiment``: one experiment of the source reports, or all of them."""
 
     name: str = setting(flag="name", choices=(*EXPERIMENTS, "all"))
     """The experiment (all: the four that test the source reports, then REPRODUCTION.md)."""
     out: str = setting(flag="--out", metavar="DIR")
     """Output folder (CSV, figures, report.md)."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
     quick: bool = setting(False, flag="--quick")
     """A smoke run of a few steps: its report draws no conclusions."""
     seed: int = setting(0, lo=0, hi=2 ** 31, flag="--seed")
@@ -42,13 +37,11 @@ class ExperimentCommand:
 
 
 @dataclass(kw_only=True)
-class SweepCommand:
+class SweepCommand(Writes):
     """``mitnerf sweep``: speed against accuracy (the sweep's options: :class:`~mitnerf.experiments.sweep.Config`)."""
 
     out: str = setting(flag="--out", metavar="DIR")
     """Output folder (sweep.csv, sweep.md, pareto.png); a rerun skips the finished rows."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
 
 
 def register(sub) -> None:

@@ -17,15 +17,14 @@ from ..data.formats import load_dataset
 from ..errors import ConfigError, Terminated
 from ..results import load_results
 from ..train.auto import AutoConfig, choose_recipe
-from ..train.checkpoint import checkpoint_bytes, load_checkpoint, read_manifest
+from ..train.checkpoint import checkpoint_bytes, load_checkpoint, read_manifest, write_fit
 from ..data.rays import background_name
 from ..train.fit import check_dataset, fit, resolve_background
 from ..train.loop import Interrupted, TrainingFailed, deferred_signals
 from ..train.recipes import DEFAULT, RECIPES
-from ..train.report import write_fit
 from ..settings import setting
-from .args import add_recipe_flags, overrides, recipe_from_args, scene_from_args
-from .command import add_command, parse
+from .args import (Writes, add_command, add_recipe_flags, overrides, parse, recipe_from_args,
+                   scene_from_args)
 
 
 MAX_TRAIN_PIXELS = 100_000_000
@@ -52,15 +51,13 @@ def read_views(path: str, downscale: int | None) -> tuple:
 
 
 @dataclass(kw_only=True)
-class FitCommand:
+class FitCommand(Writes):
     """``mitnerf fit``: train a recipe on a dataset, evaluate it on the test views, write it."""
 
     data: str | None = setting(None, flag="--data", metavar="DIR", shown="none; give --data or --resume")
     """Dataset folder (NeRF2D, Blender, nerfstudio, instant-ngp) or tiny-NeRF .npz."""
     out: str | None = setting(None, flag="--out", metavar="DIR", shown="a new folder out/<data>-<recipe>")
     """Folder for the checkpoint, metrics and figures."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into an --out folder that holds other files (they are left alone)."""
     resume: str | None = setting(None, flag="--resume", metavar="RUN", shown="none")
     """Continue a run from its folder: an interrupted one to its end, a finished one for --time-budget seconds
     (or --iters steps) more."""

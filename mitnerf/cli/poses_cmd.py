@@ -11,14 +11,14 @@ from dataclasses import dataclass
 from .._io import Output
 from ..data.sfm import SfmConfig, find_images, need_pycolmap, pose_capture
 from ..settings import setting
-from .command import add_command, options, parse
+from .args import Writes, add_command, options, parse
 
 SIFT_BYTES = 200
 """Bytes the feature database holds per SIFT feature (its descriptor, keypoint and index)."""
 
 
 @dataclass(kw_only=True)
-class PosesCommand:
+class PosesCommand(Writes):
     """``mitnerf poses``: camera poses of photographs by structure from motion (COLMAP's options:
     :class:`~mitnerf.data.sfm.SfmConfig`)."""
 
@@ -26,8 +26,6 @@ class PosesCommand:
     """Folder of photographs (.png, .jpg) of one size; they are copied, never changed."""
     out: str = setting(flag="--out", metavar="DATA")
     """Output dataset folder: new, empty, or an earlier one of mitnerf's."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
 
 
 def register(sub) -> None:

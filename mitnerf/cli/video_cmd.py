@@ -22,7 +22,7 @@ from ..viz.rigs import plot_mesh_comparison
 from ..viz.paths import PATH_OF, path_cameras
 from ..viz.video import OrbitConfig, orbit_cameras, orbit_video
 from ..settings import setting
-from .command import add_command, options, parse
+from .args import Writes, add_command, options, parse
 
 
 def parse_level(text: str) -> str:
@@ -38,7 +38,7 @@ def parse_level(text: str) -> str:
 
 
 @dataclass(kw_only=True)
-class VideoCommand:
+class VideoCommand(Writes):
     """``mitnerf video``: a video of a trained 3D field along a path that fits its scene, and an object's mesh (the
     path's options: :class:`~mitnerf.viz.video.OrbitConfig`)."""
 
@@ -46,8 +46,6 @@ class VideoCommand:
     """A trained 3D model: the folder `mitnerf fit` wrote."""
     out: str = setting(flag="--out", metavar="DIR")
     """Folder for the videos and the mesh."""
-    overwrite: bool = setting(False, flag="--overwrite")
-    """Write into a folder that holds other files (they are left alone)."""
     mesh: bool = setting(True, flag="--mesh")
     """Also extract the density's mesh and compare it with the ground truth (objects in a box only)."""
     level: str = setting(str(LEVEL), flag="--level", parse=parse_level, metavar="DENSITY|auto")

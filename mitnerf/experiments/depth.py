@@ -15,8 +15,7 @@ from ..data.cache import cached_dataset
 from ..data.rig import RigConfig
 from ..settings import setting
 from ..train.recipes import get_recipe
-from ..viz.charts import series_figure
-from ..viz.panels import density_panel, depth_panel, image_grid, strip_panel
+from ..viz.panels import density_panel, depth_panel, image_grid, series_figure, strip_panel
 from .claims import judged
 from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
 
@@ -61,7 +60,7 @@ def quick(seed: int = 0) -> Config:
 
 
 def panels(rows: list[dict]) -> list[dict]:
-    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR and depth error against the
+    """The charts of its rows (:func:`~mitnerf.viz.panels.series_figure`): test PSNR and depth error against the
     training views, per scene and method."""
     s = summarise(rows, ["scene", "views", "method"], ("psnr", "depth_error"))
     return [dict(title="depth supervision", rows=s, x="views", y=y, by=("scene", "method"), ylabel=label,

@@ -14,8 +14,7 @@ from ..data.cache import cached_dataset
 from ..data.rig import RigConfig, noise_preset
 from ..settings import setting
 from ..train.recipes import get_recipe
-from ..viz.charts import series_figure
-from ..viz.panels import density_panel, image_grid, strip_panel
+from ..viz.panels import density_panel, image_grid, series_figure, strip_panel
 from .claims import judged
 from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
 
@@ -55,7 +54,7 @@ def quick(seed: int = 0) -> Config:
 
 
 def panels(rows: list[dict]) -> list[dict]:
-    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR and train time against L."""
+    """The charts of its rows (:func:`~mitnerf.viz.panels.series_figure`): test PSNR and train time against L."""
     s = summarise(rows, ["L"], ("psnr", "train_time"))
     return [dict(title="positional encoding", rows=s, x="L", xlabel="position frequencies L"),
             dict(title="positional encoding", rows=s, x="L", y="train_time", err=False, xlabel="position frequencies L",

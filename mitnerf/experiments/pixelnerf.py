@@ -25,8 +25,7 @@ from ..settings import setting
 from ..train.metrics import depth_error, psnr, ssim
 from ..train.pixelnerf import PixelTrainer, pick_views, scene_views
 from ..train.recipes import get_recipe
-from ..viz.charts import series_figure
-from ..viz.panels import density_panel, image_grid, strip_panel
+from ..viz.panels import density_panel, image_grid, series_figure, strip_panel
 from .claims import judged
 from .report import markdown_table, mean_std, summarise, train_row, write_csv, write_report
 
@@ -99,7 +98,7 @@ def picks(ds, k: int, draw: int, draws: int) -> np.ndarray:
 
 
 def panels(rows: list[dict]) -> list[dict]:
-    """The charts of its rows (:func:`~mitnerf.viz.charts.series_figure`): test PSNR against the input views on each
+    """The charts of its rows (:func:`~mitnerf.viz.panels.series_figure`): test PSNR against the input views on each
     evaluation scene, then on the seen and the unseen outlines."""
     s = summarise([{**r, "panel": r["scene"] if r["group"] == "eval" else r["group"]} for r in rows],
                   ["panel", "method", "k"], ("psnr",))

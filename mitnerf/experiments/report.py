@@ -15,7 +15,7 @@ from .._io import atomic_write_text
 from ..data.dataset import Dataset
 from ..train.fit import fit_and_evaluate
 from ..train.recipes import Recipe
-from ..viz.charts import num
+from ..viz.panels import num
 
 
 def train_row(dataset: Dataset, recipe: Recipe, labels: dict, backend: str = "drjit",

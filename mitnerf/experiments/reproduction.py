@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .._io import atomic_write_text
 from ..results import machine_line, record_result
-from ..viz.charts import series_figure
+from ..viz.panels import series_figure
 from . import EXPERIMENTS
 from .claims import CLAIMS, SOURCES, claims_table, verdict
 from .report import markdown_table

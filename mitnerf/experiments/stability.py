@@ -18,7 +18,7 @@ from ..data.cache import cached_dataset
 from ..data.rig import RigConfig
 from ..settings import setting
 from ..train.recipes import get_recipe
-from ..viz.charts import series_figure
+from ..viz.panels import series_figure
 from .claims import judged
 from .report import markdown_table, summarise, train_row, write_csv, write_report
 

@@ -37,7 +37,7 @@ from ..scenes.objects3d import OBJECTS_3D
 from ..scenes.registry import SCENES_2D
 from ..train.fit import fit_and_evaluate
 from ..train.recipes import SWEEP_SIZES as SIZES, Recipe, recipe_for
-from ..viz.charts import series_figure
+from ..viz.panels import series_figure
 from ..settings import setting
 from .claims import judged
 from .report import is_reference, markdown_table, num, pareto_front, write_report

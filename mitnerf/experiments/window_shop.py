@@ -18,8 +18,7 @@ from ..data.rig import RigConfig, noise_preset
 from ..errors import DataError
 from ..settings import setting
 from ..train.recipes import get_recipe
-from ..viz.charts import series_figure
-from ..viz.panels import image_grid, image_panel
+from ..viz.panels import image_grid, image_panel, series_figure
 from .claims import _f, _ws, judged
 from .report import markdown_table, train_row, write_csv, write_report
 
@@ -87,7 +86,7 @@ def nerf_recipe(cfg: Config, L: int, n_coarse: int, vd: bool, n_fine: int = 0, s
 
 
 def panels(rows: list[dict]) -> list[dict]:
-    """The chart of its rows (:func:`~mitnerf.viz.charts.series_figure`): Table 2 and ours on each object, row for
+    """The chart of its rows (:func:`~mitnerf.viz.panels.series_figure`): Table 2 and ours on each object, row for
     row."""
     pts = [{"#": i, "psnr": c[4], "run": "Table 2 (Lego, GPU)"} for i, c in COMBINATIONS.items()]
     pts += [{"#": i, "psnr": rs[str(i)].get("psnr"), "run": f"ours, {obj}"} for obj, rs in _ws(rows).items()

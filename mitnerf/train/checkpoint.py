@@ -6,6 +6,7 @@
     weights.npz     the model (canonical names, both engines read it) and the occupancy grid
     state.npz       Adam's moments (engine-specific names) and the best weights: for --resume
     history.json    the loss and validation curves
+    metrics.json    the evaluation (:func:`write_fit`), beside the figures: curves, test views, density
 
 Loading checks the format and version (a newer one is refused), the field and dimension the caller needs,
 and each array's presence, shape, dtype, SHA-256 and finiteness; a failure raises one ``CheckpointError``."""
@@ -22,9 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from .._io import atomic_write_text, json_text
+from ..data.dataset import Dataset
 from ..errors import CheckpointError, MitnerfError
+from ..viz.views import plot_curves, save_density, save_renders
 from .auto import final_params
 from .engines import make_backend
+from .evaluate import RunRecord
 from .fit import Run
 from .loop import LoopState, new_history
 from .recipes import Recipe
@@ -63,6 +67,22 @@ def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -
                 "metrics": metrics or {}, "arrays": {name: meta for name, (_, meta) in files.items()}}
     atomic_write_text(folder / "history.json", json_text(run.state.history, indent=None))
     atomic_write_text(folder / "manifest.json", json_text(manifest))
+    return folder
+
+
+def write_fit(run: Run, folder: Path, record: RunRecord | None = None, dataset: Dataset | None = None) -> Path:
+    """Write ``run`` into ``folder``; with ``record`` and ``dataset`` also the metrics and figures."""
+    metrics = record.row() if record is not None else {"interrupted_at": run.state.step}
+    save_checkpoint(run, folder, metrics)
+    atomic_write_text(folder / "metrics.json", json_text({**metrics, "notes": run.notes}))
+    if record is not None and dataset is not None and record.renders is not None:
+        title = f"{dataset.name}, {run.recipe.name} ({run.backend.name})"
+        plot_curves(run.state.history, folder / "curves.png", title)
+        save_renders(record.renders, dataset["test"].subset(record.renders["views"]),
+                     run.recipe.model.render.render_background(), folder, dataset.near, dataset.far,
+                     title=title)
+        save_density(run.backend.density, run.bound, dataset.dim, folder / "density.png",
+                     dataset.meta.get("polygon"), title=f"density: {title}")
     return folder
 
 

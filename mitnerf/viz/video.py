@@ -18,8 +18,8 @@ from ..data.color import to_uint8
 from ..data.rig import look_at_3d
 from ..errors import MitnerfError
 from ..settings import check, setting
+from .panels import colorize_depth
 from .paths import PATHS
-from .strips import colorize_depth
 
 
 @dataclass

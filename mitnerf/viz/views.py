@@ -1,5 +1,6 @@
 """Pictures of views a person opens: a few views of a split (or every view of a 2D strip) in labelled rows, the
-data's name in the title, at most :data:`MAX_PIXELS` on the longer side."""
+data's name in the title, at most :data:`MAX_PIXELS` on the longer side; and of a trained model: its curves, its
+renders beside the ground truth, its density field."""
 
 from __future__ import annotations
 
@@ -7,8 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .panels import pyplot, save
-from .strips import colorize_depth, views_strip
+from .panels import colorize_depth, density_image, density_panel, pyplot, save, views_strip
 
 MAX_VIEWS = 6
 """Views a figure shows at most (3D: evenly spread over the split; 2D views are narrow: every view of a strip)."""
@@ -55,3 +55,36 @@ def split_figures(split, name: str, out: Path, background, near=None, far=None, 
     if split.depth is not None:
         rows.append(("depth", colorize_depth(split.depth, near, far)))
     return [compare_figure(out / f"{name}_views.png", rows, f"{title}: {name} split, {len(split)} views")]
+
+
+def plot_curves(history: dict, path: str | Path, title: str = "") -> Path:
+    """Training loss and validation PSNR against training time."""
+    fig, ax = pyplot().subplots(1, 2, figsize=(10, 3.6))
+    ax[0].semilogy(history["time"], history["loss"], lw=1)
+    if history.get("val_psnr"):
+        ax[1].plot(history["val_time"], history["val_psnr"], "o-")
+    for a, ylabel in zip(ax, ("loss", "validation PSNR [dB]")):
+        a.set(xlabel="training time [s]", ylabel=ylabel)
+        a.grid(alpha=0.3)
+    fig.suptitle(title)
+    return save(fig, path)
+
+
+def save_density(density, bound: float, dim: int, path: str | Path, outline=None, title="density") -> Path:
+    fig, ax = pyplot().subplots(figsize=(4.4, 4.2))
+    density_panel(ax, density_image(density, bound, dim), bound, outline, title)
+    fig.colorbar(ax.images[0], ax=ax, fraction=0.046, label="log10(0.01 + sigma)")
+    return save(fig, path)
+
+
+def save_renders(renders: dict, split, background, out: Path, near=None, far=None, prefix: str = "test",
+                 title: str = "") -> list[Path]:
+    """The model's colour and depth beside the ground truth's, and their difference, on a few of the split's views
+    (:func:`compare_figure`)."""
+    depth = np.where(renders["opacity"] > 0.5, renders["depth"] / np.maximum(renders["opacity"], 1e-6), np.inf)
+    truth, model = split.target(background), np.clip(renders["rgb"], 0, 1)
+    rows = [("ground truth", truth), ("model", model), ("error x4", np.clip(4 * np.abs(model - truth), 0, 1))]
+    if split.depth is not None:
+        rows.append(("true depth", colorize_depth(split.depth, near, far)))
+    rows.append(("model depth", colorize_depth(depth, near, far)))
+    return [compare_figure(out / f"{prefix}_views.png", rows, f"{title}: {prefix} views")]
