@@ -164,6 +164,22 @@ def image_size(path: Path) -> tuple[int, int]:
     return h, w
 
 
+def view_size(paths: list[Path], where: str, downscale: int = 1) -> tuple[int, int]:
+    """``(H, W)`` that every image of ``paths`` has, from their headers; refused when they differ, or when the views
+    box-filtered by ``downscale`` (a view one pixel wide, 2D, keeps its column) have no pixel or do not fit in
+    memory (:func:`check_memory`)."""
+    sizes = {image_size(p) for p in paths}
+    if len(sizes) != 1:
+        raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all views need one resolution: "
+                        "resize them")
+    H, W = sizes.pop()
+    h, w = H // downscale, W // (1 if W == 1 else downscale)
+    if min(h, w) < 1:
+        raise DataError(f"{where}: downscale {downscale} leaves no pixel of {W} x {H} views; choose a smaller one")
+    check_memory(len(paths) * h * w, where)
+    return H, W
+
+
 def read_image(path: Path) -> np.ndarray:
     """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``."""
     import imageio.v3 as iio
@@ -289,12 +305,11 @@ def write_meta(folder: Path, dataset, fmt: str) -> None:
     (folder / META).write_text(json.dumps(meta, indent=1))
 
 
-def read_meta(folder: Path) -> dict:
-    """Our provenance file, when there is one (checked like any input)."""
+def read_meta(folder: Path, fmt: str | None = None, downscale: int = 1) -> dict:
+    """Our provenance file, when there is one (checked like any input), with the ``format`` ``fmt`` where it names
+    none and the ``downscale`` the views are read at (when > 1)."""
     path = Path(folder) / META
-    if not path.exists():
-        return {}
-    meta = read_json(path)
+    meta = read_json(path) if path.exists() else {}
     for key in ("near", "far"):
         if key in meta:
             number(meta[key], f"{path}: {key!r}", 0, 1e6, strict_lo=False)
@@ -317,4 +332,8 @@ def read_meta(folder: Path) -> dict:
         raise DataError(f"{path}: 'background' must be [r, g, b]; fix or delete the key")
     for v in bg:
         number(v, f"{path}: a background value", 0, 1, strict_lo=False)
+    if fmt:
+        meta.setdefault("format", fmt)
+    if downscale > 1:
+        meta["downscale"] = downscale
     return meta

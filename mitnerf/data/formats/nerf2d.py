@@ -23,8 +23,8 @@ from ..cameras import Cameras
 from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
 from .capture import check_downscale
-from .common import (as_rgba, check_focal, check_memory, get, image_size, read_image, read_poses,
-                     read_json, read_meta, read_npz, write_meta, write_png)
+from .common import (as_rgba, check_focal, get, read_image, read_poses, read_json, read_meta, read_npz, view_size,
+                     write_meta, write_png)
 
 
 def write_nerf2d(dataset: Dataset, folder: Path) -> None:
@@ -83,14 +83,10 @@ def _read_split(d: Path) -> Split:
     if found != n or not all(p.exists() for p in pngs):
         raise DataError(f"{d}: transforms.json has {n} poses but the folder has {found} cam-*.png images; "
                         "every frame i needs its cam-i.png")
-    sizes = {image_size(p) for p in pngs}
-    if len(sizes) != 1:
-        raise DataError(f"{d}: images have different sizes {sorted(sizes)}; all views need one resolution")
-    h, w = sizes.pop()
+    h, w = view_size(pngs, str(d))
     if min(h, w) != 1:
         raise DataError(f"{d}: views are {h} x {w} pixels; NeRF2D views are one pixel wide (H x 1)")
     H = max(h, w)
-    check_memory(n * H, str(d))
     focal = check_focal(get(data, "focal", (int, float), where), H, where)
     img = np.stack([_row(p, H) for p in tqdm(pngs, desc=f"read {d.parent.name}/{d.name}", unit="view", delay=1,
                                             leave=False)])
@@ -132,14 +128,11 @@ def read_nerf2d(path: str | Path, downscale: int = 1) -> Dataset:
     splits = {s: _read_split(path / s) for s in SPLITS if (path / s / "transforms.json").exists()}
     if "train" not in splits:
         raise DataError(f"{path} has no train/transforms.json; point at a NeRF2D dataset folder")
-    meta = read_meta(path)
+    meta = read_meta(path, "nerf2d", downscale)
     near, far = meta.get("near"), meta.get("far")
     if near is None or far is None:         # foreign datasets: from the depth maps when present, else from the rig
         depths = [s.depth[np.isfinite(s.depth)] for s in splits.values() if s.depth is not None]
         depths = np.concatenate(depths) if depths else np.zeros(0)
         near, far = ((max(0.05, depths.min() - 0.5), depths.max() + 1.0) if depths.size
                      else bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0))
-    meta.setdefault("format", "nerf2d")
-    if downscale > 1:
-        meta["downscale"] = downscale
     return Dataset({s: v.downscaled(downscale) for s, v in splits.items()}, float(near), float(far), meta)

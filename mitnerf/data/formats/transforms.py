@@ -45,8 +45,8 @@ from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras, box_downscale
 from ..lens import COEFFICIENTS, MODELS
 from .capture import absent, check_downscale, check_intrinsics, check_lens, read_views, warn_skipped
-from .common import (as_rgba, check_focal, check_memory, get, image_size, number, read_image, read_poses, read_json,
-                     read_meta, read_npy, write_meta, write_png)
+from .common import (as_rgba, check_focal, get, number, read_image, read_poses, read_json, read_meta, read_npy,
+                     view_size, write_meta, write_png)
 
 NS_DEPTH_UNIT = 1e-3
 
@@ -227,13 +227,9 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
         raise DataError(f"{where} lists no frames; add frames or drop the split")
     poses = read_poses(frames, 4, where)
     paths = [_path(root, f.get("file_path"), where) for f in frames]
-    sizes = {image_size(p) for p in paths}
-    if len(sizes) != 1:
-        raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all frames need one resolution")
-    H, W = sizes.pop()
+    H, W = view_size(paths, where, downscale)
     if dim == 2 and W != 1:
         raise DataError(f"{where}: a 2D dataset has views one pixel wide, these are {W} wide")
-    check_memory(len(frames) * (H // downscale) * (W if dim == 2 else W // downscale), where)
     cams = Cameras(pose_3d_to_2d(poses) if dim == 2 else poses, height=H, width=W,
                    **_intrinsics(header, frames, where, W, H, dim))
     check_lens(cams, where)
@@ -325,10 +321,7 @@ def read_transforms(path: str | Path, downscale: int = 1) -> Dataset:
     if "train" not in splits:
         raise DataError(f"{path} has neither transforms_train.json nor transforms.json with training frames; "
                         "point at a Blender/nerfstudio dataset folder")
-    meta = read_meta(path)
-    meta.setdefault("format", fmt)
-    if downscale > 1:
-        meta["downscale"] = downscale
+    meta = read_meta(path, fmt, downscale)
     near, far = meta.get("near"), meta.get("far")
     if near is None or far is None:       # Blender scenes: 2..6 at radius 4
         near, far = bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0)
