@@ -163,6 +163,17 @@ def layout(poses: np.ndarray) -> str:
     return "forward" if norm > 0 and (axes @ mean / norm).min() >= np.cos(np.radians(FORWARD_CONE)) else "around"
 
 
+def focus_point(poses: np.ndarray) -> np.ndarray:
+    """The point nearest to every camera's optical axis (least squares), or the centres' mean where the axes are
+    (nearly) parallel."""
+    a = -poses[:, :3, 2]
+    P = np.eye(3)[None] - a[:, :, None] * a[:, None, :]            # projectors across each axis
+    M, v = P.sum(0), np.einsum("nij,nj->i", P, poses[:, :3, 3])
+    if np.linalg.cond(M) > 1e6:
+        return poses[:, :3, 3].mean(0)
+    return np.linalg.solve(M, v)
+
+
 def near_far(cameras: Cameras, bounds: np.ndarray) -> tuple[float, float]:
     """The distances along any ray that bound per-view depth ``bounds [n, 2]`` (along the optical axis): 0.9 of
     the nearest (as NeRF's LLFF loader) and the farthest stretched along each view's widest ray."""
