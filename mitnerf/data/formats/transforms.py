@@ -325,6 +325,5 @@ def read_transforms(path: str | Path, downscale: int = 1) -> Dataset:
     near, far = meta.get("near"), meta.get("far")
     if near is None or far is None:       # Blender scenes: 2..6 at radius 4
         near, far = bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0)
-    if skipped:
-        warn_skipped(str(path / "transforms.json"), skipped, listed)
+    warn_skipped(str(path / "transforms.json"), skipped, listed)
     return Dataset(splits, float(near), float(far), meta)
