@@ -46,7 +46,7 @@ from ..settings import check, setting
 from .cameras import Cameras
 from .dataset import box_downscale
 from .formats.capture import IMAGE_SUFFIXES, check_intrinsics, focus_point, layout, near_far
-from .formats.colmap import camera_lens, camera_pose, view_bounds
+from .formats.colmap import FLIP, camera_lens, camera_pose, view_bounds
 from .formats.colmap_files import read_model
 from .formats.common import META, as_rgba, image_size, read_image, write_png
 from .formats.transforms import camera_keys
@@ -257,12 +257,8 @@ def _counts(pycolmap, db: Path) -> dict:
 
 def _world(pycolmap, recon):
     """The similarity (pycolmap ``Sim3d``, new from old) to the written world (module docstring)."""
-    poses = []
-    for i in sorted(recon.reg_image_ids()):
-        M = np.eye(4)
-        M[:3] = recon.image(i).cam_from_world().inverse().matrix()
-        poses.append(M @ np.diag([1.0, -1.0, -1.0, 1.0]))           # OpenCV camera axes -> OpenGL
-    poses = np.array(poses)
+    poses = np.array([np.r_[recon.image(i).cam_from_world().inverse().matrix(), [[0, 0, 0, 1]]] @ FLIP
+                      for i in sorted(recon.reg_image_ids())])          # OpenGL camera-to-world
     up = poses[:, :3, 1].mean(0)
     R = Rotation.align_vectors([[0.0, 0.0, 1.0]], [up])[0].as_matrix() if np.linalg.norm(up) > 1e-6 else np.eye(3)
     if layout(poses) == "around":

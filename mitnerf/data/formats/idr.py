@@ -29,12 +29,12 @@ from ...errors import DataError
 from ..cameras import Cameras
 from ..dataset import Dataset, Split, bounds_from_cameras
 from .capture import IMAGE_SUFFIXES, capture_dataset, check_downscale, check_intrinsics, hold_out, read_views
+from .colmap import FLIP
 from .common import check_poses, npz_shapes, read_npz, view_size, write_meta, write_png
 
 CAMERA_FILES = ("cameras_sphere.npz", "cameras.npz")
 MAX_SKEW = 0.05
 """Pixels: the most K's skew may shift a pixel across the image's height (mitnerf's cameras have none)."""
-FLIP = np.diag([1.0, -1.0, -1.0, 1.0])
 
 
 def camera_file(root: Path) -> Path | None:
