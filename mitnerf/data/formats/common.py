@@ -286,6 +286,14 @@ def read_npy(path: Path, shape: tuple, where: str, dtype=np.float32) -> np.ndarr
     return a
 
 
+def all_or_none(have: list[bool], names: list, where: str, what: str) -> bool:
+    """Whether every view has ``what`` (``have[i]``: view ``names[i]`` has it); refused when only some have it."""
+    if any(have) and not all(have):
+        raise DataError(f"{where}: {names[have.index(False)]} has no {what} while other views have theirs; restore "
+                        "it, or remove it from every view")
+    return all(have)
+
+
 def check_memory(n_pixels: int, where: str) -> None:
     """Refuse, before loading, a dataset whose pixels would not fit in the machine's memory."""
     need = n_pixels * BYTES_PER_PIXEL

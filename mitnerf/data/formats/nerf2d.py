@@ -23,8 +23,8 @@ from ..cameras import Cameras
 from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
 from .capture import check_downscale
-from .common import (as_rgba, check_focal, get, read_image, read_poses, read_json, read_meta, read_npz, view_size,
-                     write_meta, write_png)
+from .common import (all_or_none, as_rgba, check_focal, get, read_image, read_poses, read_json, read_meta, read_npz,
+                     view_size, write_meta, write_png)
 
 
 def write_nerf2d(dataset: Dataset, folder: Path) -> None:
@@ -93,17 +93,10 @@ def _read_split(d: Path) -> Split:
     color, alpha = img[..., :3], img[..., 3]
     depth = mask = linear = None
     npz = [d / f"cam-{i}.npz" for i in range(n)]
-    have = [p.exists() for p in npz]
-    if any(have) and not all(have):
-        raise DataError(f"{d}: {npz[have.index(False)].name} is missing while other views have their .npz; "
-                        "restore it (or delete them all)")
-    if all(have):
+    if all_or_none([p.exists() for p in npz], [p.name for p in pngs], str(d), ".npz"):
         files = [read_npz(p) for p in npz]
         for key in ("depth_map", "rgb_linear", "alpha", "mask"):
-            present = [key in f for f in files]
-            if any(present) and not all(present):
-                raise DataError(f"{d}: {npz[present.index(False)].name} lacks {key!r}, which the other views' "
-                                ".npz files hold; regenerate the dataset")
+            all_or_none([key in f for f in files], [p.name for p in npz], str(d), repr(key))
         stack = lambda key, c=None: np.stack([_column(f[key], H, str(p), c) for f, p in zip(files, npz)])
         if "depth_map" in files[0]:                 # each key is in every file or in none (checked above)
             raw = stack("depth_map").astype(np.float32)

@@ -45,8 +45,8 @@ from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras, box_downscale
 from ..lens import COEFFICIENTS, MODELS
 from .capture import absent, check_downscale, check_intrinsics, check_lens, read_views, warn_skipped
-from .common import (as_rgba, check_focal, get, number, read_image, read_poses, read_json, read_meta, read_npy,
-                     view_size, write_meta, write_png)
+from .common import (all_or_none, as_rgba, check_focal, get, number, read_image, read_poses, read_json, read_meta,
+                     read_npy, view_size, write_meta, write_png)
 
 NS_DEPTH_UNIT = 1e-3
 
@@ -253,11 +253,7 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
                          for p in (_path(root, f["mask_path"], where) for f in frames)])
         mask = box_downscale(mask, downscale, cols) > 0.5
     lpaths = [p.with_name(p.stem + "_linear.npy") for p in paths]
-    have = [p.exists() for p in lpaths]
-    if any(have) and not all(have):
-        raise DataError(f"{where}: {lpaths[have.index(False)]} is missing while other frames have their "
-                        "_linear.npy; restore it (or delete them all)")
-    if all(have):
+    if all_or_none([p.exists() for p in lpaths], paths, where, "_linear.npy"):
         lin = box_downscale(np.stack([read_npy(p, (*full, 4), where) for p in lpaths]), downscale, cols)
         linear, a = lin[..., :3], lin[..., 3]
         if a.min() < 0 or a.max() > 1:
