@@ -127,10 +127,7 @@ def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] 
     h, w = H // downscale, W // cols
     color, alpha = np.empty((len(paths), h, w, 3), np.float32), np.empty((len(paths), h, w), np.float32)
     for i, p in enumerate(tqdm(paths, desc=f"read {Path(where).name}", unit="view", delay=1, leave=False)):
-        rgba = as_rgba(read_image(p))
-        if rgba.shape[:2] != (H, W):                # replaced by another image since its header was read
-            raise DataError(f"{p} is now {rgba.shape[1]} x {rgba.shape[0]} pixels, not the {W} x {H} its header "
-                            "said a moment ago: it changed while it was read; run again once it is written")
+        rgba = as_rgba(read_image(p, (H, W)))
         if masks is not None:
             m = as_rgba(read_image(masks[i]))
             if m.shape[:2] != (H, W):

@@ -180,13 +180,14 @@ def view_size(paths: list[Path], where: str, downscale: int = 1) -> tuple[int, i
     return H, W
 
 
-def read_image(path: Path) -> np.ndarray:
-    """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``."""
+def read_image(path: Path, size: tuple[int, int] | None = None) -> np.ndarray:
+    """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``, of the size its header gives (or
+    ``size``, what a caller read from the header before); refused when it changed while it was read."""
     import imageio.v3 as iio
 
     from PIL import Image
 
-    image_size(path)
+    header = image_size(path)
     try:
         with _own_size_limits():
             with Image.open(path) as im:
@@ -203,6 +204,10 @@ def read_image(path: Path) -> np.ndarray:
                         "replace the file") from None
     if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 2, 3, 4)):
         raise DataError(f"image {path} has shape {img.shape}; expected grey, RGB or RGBA")
+    H, W = size or header
+    if img.shape[:2] != (H, W):
+        raise DataError(f"{path} is now {img.shape[1]} x {img.shape[0]} pixels, not the {W} x {H} its header said a "
+                        "moment ago: it changed while it was read; run again once it is written")
     if img.dtype.kind not in "uif":
         raise DataError(f"image {path} holds {img.dtype} pixels; save it as 8- or 16-bit PNG")
     scale = 65535.0 if img.dtype == np.uint16 else 255.0 if img.dtype == np.uint8 else 1.0

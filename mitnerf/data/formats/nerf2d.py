@@ -60,16 +60,6 @@ def _column(a: np.ndarray, H: int, what: str, channels: int | None = None) -> np
     return a.reshape((H, 1, c) if channels else (H, 1))
 
 
-def _row(path: Path, H: int) -> np.ndarray:
-    """A NeRF2D view (a 1 x H or H x 1 image) as ``[H, 1, 4]``; refused when it is no longer the size its header
-    said (replaced while it was read)."""
-    img = as_rgba(read_image(path))
-    if img.shape[0] * img.shape[1] != H:
-        raise DataError(f"{path} is now {img.shape[1]} x {img.shape[0]} pixels, not the {H} its header said a "
-                        "moment ago: it changed while it was read; run again once it is written")
-    return img.reshape(H, 1, 4)
-
-
 def _read_split(d: Path) -> Split:
     where = str(d / "transforms.json")
     data = read_json(d / "transforms.json")
@@ -88,8 +78,8 @@ def _read_split(d: Path) -> Split:
         raise DataError(f"{d}: views are {h} x {w} pixels; NeRF2D views are one pixel wide (H x 1)")
     H = max(h, w)
     focal = check_focal(get(data, "focal", (int, float), where), H, where)
-    img = np.stack([_row(p, H) for p in tqdm(pngs, desc=f"read {d.parent.name}/{d.name}", unit="view", delay=1,
-                                            leave=False)])
+    img = np.stack([as_rgba(read_image(p, (h, w))).reshape(H, 1, 4)      # 1 x H or H x 1 images as [H, 1, 4]
+                    for p in tqdm(pngs, desc=f"read {d.parent.name}/{d.name}", unit="view", delay=1, leave=False)])
     color, alpha = img[..., :3], img[..., 3]
     depth = mask = linear = None
     npz = [d / f"cam-{i}.npz" for i in range(n)]
