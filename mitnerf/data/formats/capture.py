@@ -129,11 +129,7 @@ def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] 
     for i, p in enumerate(tqdm(paths, desc=f"read {Path(where).name}", unit="view", delay=1, leave=False)):
         rgba = as_rgba(read_image(p, (H, W)))
         if masks is not None:
-            m = as_rgba(read_image(masks[i]))
-            if m.shape[:2] != (H, W):
-                raise DataError(f"{masks[i]} is {m.shape[1]} x {m.shape[0]} pixels but its view is {W} x {H}; "
-                                "a mask needs the size of its view")
-            rgba[..., 3] = m[..., 0]
+            rgba[..., 3] = as_rgba(read_image(masks[i], (H, W), "a mask"))[..., 0]
         rgba[..., :3] *= rgba[..., 3:]
         small = box_downscale(rgba[None], downscale, cols)[0]
         color[i], alpha[i] = small[..., :3], small[..., 3]

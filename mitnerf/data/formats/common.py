@@ -180,14 +180,18 @@ def view_size(paths: list[Path], where: str, downscale: int = 1) -> tuple[int, i
     return H, W
 
 
-def read_image(path: Path, size: tuple[int, int] | None = None) -> np.ndarray:
-    """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``, of the size its header gives (or
-    ``size``, what a caller read from the header before); refused when it changed while it was read."""
+def read_image(path: Path, size: tuple[int, int] | None = None, what: str = "") -> np.ndarray:
+    """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``, of the size ``(H, W)`` its header
+    gives. ``size``: the size it must have (``what`` it is, ``a mask``, when that is a rule: it needs the size of its
+    view), else what its header gave a caller a moment before; refused when it changed while it was read."""
     import imageio.v3 as iio
 
     from PIL import Image
 
     header = image_size(path)
+    if what and header != tuple(size):
+        raise DataError(f"{path} is {header[1]} x {header[0]} pixels but its view is {size[1]} x {size[0]}; {what} "
+                        "needs the size of its view")
     try:
         with _own_size_limits():
             with Image.open(path) as im:

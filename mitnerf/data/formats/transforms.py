@@ -201,16 +201,6 @@ def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int
     return {"fx": out["fx"], "cy": out["cy"]}
 
 
-def _plane(img: np.ndarray, H: int, W: int, path: Path) -> np.ndarray:
-    """A one-channel image (a depth map or mask) of the views' size ``H x W``."""
-    if img.ndim == 3:
-        img = img[..., 0]
-    if img.shape != (H, W):
-        raise DataError(f"{path} is {img.shape[1]} x {img.shape[0]} pixels but the views are {W} x {H}; "
-                        "depth maps and masks need the size of their view")
-    return img
-
-
 def _path(root: Path, value, where: str, suffix: str = ".png") -> Path:
     if not isinstance(value, str) or not value:
         raise DataError(f"{where}: a frame's path must be a non-empty string, got {json.dumps(value)[:40]}")
@@ -239,7 +229,8 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
     H, W = cams.height, cams.width
     depth = mask = linear = None
     if downscale == 1 and all("depth_file_path" in f for f in frames):          # every frame is a dict
-        raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy" else _plane(read_image(p), H, W, p)
+        raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy"
+                        else as_rgba(read_image(p, (H, W), "a depth map"))[..., 0]
                         for p in (_path(root, f["depth_file_path"], where, ".npy") for f in frames)])
         if not np.isfinite(raw).all() or (raw < 0).any():
             raise DataError(f"{where}: depth maps must be finite and >= 0 (0 on a miss)")
@@ -249,7 +240,7 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
         depth = np.where(raw > 0, raw, np.inf).astype(np.float32)
         mask = np.isfinite(depth)
     if all("mask_path" in f for f in frames):
-        mask = np.stack([_plane(as_rgba(read_image(p))[..., 0], *full, p)
+        mask = np.stack([as_rgba(read_image(p, full, "a mask"))[..., 0]
                          for p in (_path(root, f["mask_path"], where) for f in frames)])
         mask = box_downscale(mask, downscale, cols) > 0.5
     lpaths = [p.with_name(p.stem + "_linear.npy") for p in paths]
