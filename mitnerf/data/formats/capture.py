@@ -16,7 +16,7 @@ from ...errors import ConfigError, DataError, MitnerfError, Note
 from ..cameras import Cameras
 from ..dataset import Dataset, Split, box_downscale
 from ..lens import COEFFICIENTS, fold_radius, jacobian, undistort
-from .common import as_rgba, check_focal, number, read_image, read_meta, view_size
+from .common import as_rgba, check_focal, number, read_meta, read_view, view_size
 
 HOLDOUT = 8
 """Where a capture names no split, image ``i`` is a test view when ``i % 8 == 0`` (NeRF's LLFF protocol) and
@@ -127,9 +127,9 @@ def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] 
     h, w = H // downscale, W // cols
     color, alpha = np.empty((len(paths), h, w, 3), np.float32), np.empty((len(paths), h, w), np.float32)
     for i, p in enumerate(tqdm(paths, desc=f"read {Path(where).name}", unit="view", delay=1, leave=False)):
-        rgba = as_rgba(read_image(p, (H, W)))
+        rgba = as_rgba(read_view(p, (H, W)))
         if masks is not None:
-            rgba[..., 3] = as_rgba(read_image(masks[i], (H, W), "a mask"))[..., 0]
+            rgba[..., 3] = as_rgba(read_view(masks[i], (H, W), "a mask"))[..., 0]
         rgba[..., :3] *= rgba[..., 3:]
         small = box_downscale(rgba[None], downscale, cols)[0]
         color[i], alpha[i] = small[..., :3], small[..., 3]

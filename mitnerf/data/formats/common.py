@@ -180,18 +180,13 @@ def view_size(paths: list[Path], where: str, downscale: int = 1) -> tuple[int, i
     return H, W
 
 
-def read_image(path: Path, size: tuple[int, int] | None = None, what: str = "") -> np.ndarray:
-    """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``, of the size ``(H, W)`` its header
-    gives. ``size``: the size it must have (``what`` it is, ``a mask``, when that is a rule: it needs the size of its
-    view), else what its header gave a caller a moment before; refused when it changed while it was read."""
+def read_image(path: Path) -> np.ndarray:
+    """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``."""
     import imageio.v3 as iio
 
     from PIL import Image
 
-    header = image_size(path)
-    if what and header != tuple(size):
-        raise DataError(f"{path} is {header[1]} x {header[0]} pixels but its view is {size[1]} x {size[0]}; {what} "
-                        "needs the size of its view")
+    image_size(path)
     try:
         with _own_size_limits():
             with Image.open(path) as im:
@@ -208,10 +203,6 @@ def read_image(path: Path, size: tuple[int, int] | None = None, what: str = "") 
                         "replace the file") from None
     if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[-1] not in (1, 2, 3, 4)):
         raise DataError(f"image {path} has shape {img.shape}; expected grey, RGB or RGBA")
-    H, W = size or header
-    if img.shape[:2] != (H, W):
-        raise DataError(f"{path} is now {img.shape[1]} x {img.shape[0]} pixels, not the {W} x {H} its header said a "
-                        "moment ago: it changed while it was read; run again once it is written")
     if img.dtype.kind not in "uif":
         raise DataError(f"image {path} holds {img.dtype} pixels; save it as 8- or 16-bit PNG")
     scale = 65535.0 if img.dtype == np.uint16 else 255.0 if img.dtype == np.uint8 else 1.0
@@ -219,6 +210,20 @@ def read_image(path: Path, size: tuple[int, int] | None = None, what: str = "") 
     if not np.isfinite(out).all():
         raise DataError(f"image {path} contains NaN or infinite pixels; replace the file")
     return out
+
+
+def read_view(path: Path, size: tuple[int, int], what: str = "") -> np.ndarray:
+    """:func:`read_image` of an image that must be ``size`` ``(H, W)``: ``what`` it is (``a mask``) where that is a
+    rule (it needs the size of its view), else the size its header gave a moment before (refused as changed)."""
+    H, W = size
+    h, w = image_size(path) if what else size
+    if (h, w) != (H, W):
+        raise DataError(f"{path} is {w} x {h} pixels but its view is {W} x {H}; {what} needs the size of its view")
+    img = read_image(path)
+    if img.shape[:2] != (H, W):
+        raise DataError(f"{path} is now {img.shape[1]} x {img.shape[0]} pixels, not the {W} x {H} its header said a "
+                        "moment ago: it changed while it was read; run again once it is written")
+    return img
 
 
 def write_png(path: Path, image: np.ndarray) -> None:

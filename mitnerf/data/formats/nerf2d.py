@@ -23,7 +23,7 @@ from ..cameras import Cameras
 from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
 from .capture import check_downscale
-from .common import (all_or_none, as_rgba, check_focal, get, read_image, read_poses, read_json, read_meta, read_npz,
+from .common import (all_or_none, as_rgba, check_focal, get, read_poses, read_json, read_meta, read_npz, read_view,
                      view_size, write_meta, write_png)
 
 
@@ -78,7 +78,7 @@ def _read_split(d: Path) -> Split:
         raise DataError(f"{d}: views are {h} x {w} pixels; NeRF2D views are one pixel wide (H x 1)")
     H = max(h, w)
     focal = check_focal(get(data, "focal", (int, float), where), H, where)
-    img = np.stack([as_rgba(read_image(p, (h, w))).reshape(H, 1, 4)      # 1 x H or H x 1 images as [H, 1, 4]
+    img = np.stack([as_rgba(read_view(p, (h, w))).reshape(H, 1, 4)      # 1 x H or H x 1 images as [H, 1, 4]
                     for p in tqdm(pngs, desc=f"read {d.parent.name}/{d.name}", unit="view", delay=1, leave=False)])
     color, alpha = img[..., :3], img[..., 3]
     depth = mask = linear = None

@@ -45,8 +45,8 @@ from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras, box_downscale
 from ..lens import COEFFICIENTS, MODELS
 from .capture import absent, check_downscale, check_intrinsics, check_lens, read_views, warn_skipped
-from .common import (all_or_none, as_rgba, check_focal, get, number, read_image, read_poses, read_json, read_meta,
-                     read_npy, view_size, write_meta, write_png)
+from .common import (all_or_none, as_rgba, check_focal, get, number, read_poses, read_json, read_meta, read_npy,
+                     read_view, view_size, write_meta, write_png)
 
 NS_DEPTH_UNIT = 1e-3
 
@@ -230,7 +230,7 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
     depth = mask = linear = None
     if downscale == 1 and all("depth_file_path" in f for f in frames):          # every frame is a dict
         raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy"
-                        else as_rgba(read_image(p, (H, W), "a depth map"))[..., 0]
+                        else as_rgba(read_view(p, (H, W), "a depth map"))[..., 0]
                         for p in (_path(root, f["depth_file_path"], where, ".npy") for f in frames)])
         if not np.isfinite(raw).all() or (raw < 0).any():
             raise DataError(f"{where}: depth maps must be finite and >= 0 (0 on a miss)")
@@ -240,7 +240,7 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
         depth = np.where(raw > 0, raw, np.inf).astype(np.float32)
         mask = np.isfinite(depth)
     if all("mask_path" in f for f in frames):
-        mask = np.stack([as_rgba(read_image(p, full, "a mask"))[..., 0]
+        mask = np.stack([as_rgba(read_view(p, full, "a mask"))[..., 0]
                          for p in (_path(root, f["mask_path"], where) for f in frames)])
         mask = box_downscale(mask, downscale, cols) > 0.5
     lpaths = [p.with_name(p.stem + "_linear.npy") for p in paths]
