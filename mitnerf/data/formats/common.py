@@ -31,16 +31,21 @@ BYTES_PER_PIXEL = 96
 _TYPES = {dict: "an object", list: "a list", str: "a string", (int, float): "a number"}
 
 
-def read_json(path: Path) -> dict:
-    path = Path(path)
+def read_file(path: Path, fix: str = "", binary: bool = False) -> str | bytes:
+    """A file's UTF-8 text (``fix``: what to do with one that is not UTF-8), or its bytes; one line where it cannot
+    be read."""
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataError(f"{path} does not exist; point at a dataset folder written by `mitnerf dataset`") from None
+        return path.read_bytes() if binary else path.read_text(encoding="utf-8")
     except OSError as exc:
         raise DataError(f"cannot read {path}: {exc.strerror}; check the path and its permissions") from None
     except UnicodeDecodeError:
-        raise DataError(f"{path} is not UTF-8 text; fix or regenerate it") from None
+        raise DataError(f"{path} is not UTF-8 text; {fix}") from None
+
+
+def read_json(path: Path) -> dict:
+    path = Path(path)
+    try:
+        data = json.loads(read_file(path, "fix or regenerate it"))
     except json.JSONDecodeError as exc:
         raise DataError(f"{path} is not valid JSON ({exc.msg} at line {exc.lineno}); fix or regenerate it") from None
     except RecursionError:
