@@ -11,6 +11,7 @@ from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+from scipy.ndimage import maximum_filter, minimum_filter
 
 from ..errors import MitnerfError
 from .cameras import Cameras
@@ -27,23 +28,12 @@ def free_distance(depth: np.ndarray | None, mask: np.ndarray | None, alpha: np.n
     none of them hits, and 0 (unknown) where the split has no depth and the alpha does not say (alpha > 0 in
     the neighbourhood, or alpha all ones: a format without it). Without depth, pixels whose neighbourhood has
     alpha 0 are empty all along."""
-    def neighbourhood_min(a: np.ndarray) -> np.ndarray:
-        out = a.copy()
-        for axis in (1, 2):
-            if a.shape[axis] > 1:
-                p = np.moveaxis(out, axis, 0)
-                m = p.copy()
-                m[1:] = np.minimum(m[1:], p[:-1])
-                m[:-1] = np.minimum(m[:-1], p[1:])
-                out = np.moveaxis(m, 0, axis)
-        return out
-
     if depth is not None:
         hit = mask.astype(bool) if mask is not None else np.isfinite(depth)
-        return neighbourhood_min(np.where(hit, depth, np.inf))
+        return minimum_filter(np.where(hit, depth, np.inf), size=(1, 3, 3), mode="nearest")
     if np.all(alpha >= 1.0):
         return np.zeros(alpha.shape, np.float32)
-    empty = -neighbourhood_min(-alpha) <= 0.0          # the neighbourhood's largest alpha is 0
+    empty = maximum_filter(alpha, size=(1, 3, 3), mode="nearest") <= 0.0     # the neighbourhood's largest alpha is 0
     return np.where(empty, np.inf, 0.0)
 
 

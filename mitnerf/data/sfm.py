@@ -45,8 +45,8 @@ from ..errors import DataError, EnvironmentProblem
 from ..settings import check, setting
 from .cameras import Cameras
 from .dataset import box_downscale
-from .formats.capture import IMAGE_SUFFIXES, check_intrinsics, layout, near_far
-from .formats.colmap import camera_lens, camera_pose, view_bounds
+from .formats.capture import IMAGE_SUFFIXES, check_intrinsics, focus_point, layout, near_far
+from .formats.colmap import FLIP, camera_lens, camera_pose, view_bounds
 from .formats.colmap_files import read_model
 from .formats.common import META, as_rgba, image_size, read_image, write_png
 from .formats.transforms import camera_keys
@@ -257,21 +257,15 @@ def _counts(pycolmap, db: Path) -> dict:
 
 def _world(pycolmap, recon):
     """The similarity (pycolmap ``Sim3d``, new from old) to the written world (module docstring)."""
-    poses = []
-    for i in sorted(recon.reg_image_ids()):
-        M = np.eye(4)
-        M[:3] = recon.image(i).cam_from_world().inverse().matrix()
-        poses.append(M @ np.diag([1.0, -1.0, -1.0, 1.0]))           # OpenCV camera axes -> OpenGL
-    poses = np.array(poses)
+    poses = np.array([np.r_[recon.image(i).cam_from_world().inverse().matrix(), [[0, 0, 0, 1]]] @ FLIP
+                      for i in sorted(recon.reg_image_ids())])          # OpenGL camera-to-world
     up = poses[:, :3, 1].mean(0)
     R = Rotation.align_vectors([[0.0, 0.0, 1.0]], [up])[0].as_matrix() if np.linalg.norm(up) > 1e-6 else np.eye(3)
-    origin, axis = poses[:, :3, 3], -poses[:, :3, 2]
-    if layout(poses) == "around":                # the point the optical axes pass closest to
-        P = np.eye(3) - axis[:, :, None] * axis[:, None, :]
-        centre = np.linalg.lstsq(P.sum(0), np.einsum("nij,nj->i", P, origin), rcond=None)[0]
+    if layout(poses) == "around":
+        centre = focus_point(poses)
     else:
         centre = np.median(np.array([p.xyz for p in recon.points3D.values()]), axis=0)
-    scale = CAMERA_DISTANCE / max(float(np.median(np.linalg.norm(origin - centre, axis=1))), 1e-9)
+    scale = CAMERA_DISTANCE / max(float(np.median(np.linalg.norm(poses[:, :3, 3] - centre, axis=1))), 1e-9)
     return pycolmap.Sim3d(scale, pycolmap.Rotation3d(R), -scale * R @ centre)
 
 

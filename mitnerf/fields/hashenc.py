@@ -54,18 +54,14 @@ def hash_layout(dim: int, n_levels: int, features: int, hashmap_size: int, base_
                       tuple(r ** dim <= n for r, n in zip(res, sizes)))
 
 
-def lattice_index(key: list, res: int, size: int, dense: bool) -> UInt32:
-    """Entry of the vertex at integer coordinates ``key`` in a level of ``res^D`` vertices and ``size`` entries:
-    its row-major index when ``dense``, else the XOR-of-primes hash, modulo ``size``."""
-    index = UInt32(0)
+def vertex_entry(key: list, level: int, layout) -> UInt32:
+    """Entry of the vertex at integer coordinates ``key`` within ``level`` of ``layout`` (a :class:`HashLayout` or
+    a :class:`~.hashlinear.Levels`): its row-major index where the level is stored densely, else the XOR-of-primes
+    hash, modulo the level's entries."""
+    res, index = layout.resolutions[level], UInt32(0)
     for d, k in enumerate(key):
-        index = index + k * res ** d if dense else index ^ k * PRIMES[d]
-    return index % size
-
-
-def _entry(key: list, level: int, layout: HashLayout) -> UInt32:
-    return layout.offsets[level] + lattice_index(key, layout.resolutions[level], layout.sizes[level],
-                                                 layout.dense[level])
+        index = index + k * res ** d if layout.dense[level] else index ^ k * PRIMES[d]
+    return index % layout.sizes[level]
 
 
 def hash_encode(table: Float, x: list, layout: HashLayout) -> list:
@@ -77,7 +73,7 @@ def hash_encode(table: Float, x: list, layout: HashLayout) -> list:
         pos = [xi * layout.scales[level] + 0.5 for xi in x]
         acc = [Float(0.0)] * F
         for key, weight in cell_corners([UInt32(dr.floor(p)) for p in pos], [p - dr.floor(p) for p in pos]):
-            base = _entry(key, level, layout) * F
+            base = (layout.offsets[level] + vertex_entry(key, level, layout)) * F
             for k in range(F):
                 acc[k] = dr.fma(dr.gather(Float, table, base + k), weight, acc[k])
         out += acc

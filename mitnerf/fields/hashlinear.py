@@ -33,7 +33,7 @@ from ..errors import CheckpointError, ConfigError
 from ..settings import setting
 from .base import density_activation
 from .grid import GridSettings, LatticeField, lattice_corners, tv_vertices
-from .hashenc import lattice_index
+from .hashenc import vertex_entry
 
 
 @dataclass
@@ -114,11 +114,6 @@ def levels_of(cfg: HashLinearConfig) -> Levels:
     offsets = [sum(sizes[:level]) for level in range(len(sizes))]
     color = [sum(3 * c * s for c, s in zip(coeffs[:level], sizes[:level])) for level in range(len(sizes) + 1)]
     return Levels(cfg.resolutions, tuple(sizes), tuple(dense), tuple(coeffs), tuple(offsets), tuple(color))
-
-
-def vertex_entry(key: list, level: int, lv: Levels) -> UInt32:
-    """Entry of the vertex at integer coordinates ``key`` within its level: row-major, or hashed."""
-    return lattice_index(key, lv.resolutions[level], lv.sizes[level], lv.dense[level])
 
 
 class HashLinearField(LatticeField):

@@ -99,17 +99,25 @@ def join_params(**groups: dict) -> dict:
     return {f"{g}.{k}": v for g, sub in groups.items() for k, v in sub.items()}
 
 
+class FieldSet:
+    """What a model of either engine (this one, its torch twin) knows of its ``fields``."""
+
+    @property
+    def dim(self) -> int:
+        return self.fields["coarse"].dim
+
+    def final_field(self) -> str:
+        """The field whose output is the model's answer (fine if present)."""
+        return "fine" if "fine" in self.fields else "coarse"
+
+
 @dataclass
-class Model:
+class Model(FieldSet):
     """Fields and a render configuration."""
 
     fields: dict
     """``{'coarse': field}`` and, with a separate fine pass, ``'fine'``."""
     render_cfg: RenderConfig = field(default_factory=RenderConfig)
-
-    @property
-    def dim(self) -> int:
-        return self.fields["coarse"].dim
 
     def init_numpy(self, seed: int) -> dict:
         """Initial weights, canonical numpy (both engines start from these)."""
@@ -133,10 +141,6 @@ class Model:
     def regularizer(self, params: dict, seed: UInt32):
         """Sum of the fields' regularisers (e.g. total variation), or None."""
         return sum_terms(f.regularizer(split_params(params, g), seed) for g, f in self.fields.items())
-
-    def final_field(self):
-        """The field whose output is the model's answer (fine if present)."""
-        return "fine" if "fine" in self.fields else "coarse"
 
     def density(self, params: dict, x) -> Float:
         g = self.final_field()

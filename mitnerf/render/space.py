@@ -33,7 +33,7 @@ import drjit as dr
 import numpy as np
 
 from ..data.dataset import Dataset
-from ..data.formats.capture import FORWARD_CONE, layout
+from ..data.formats.capture import FORWARD_CONE, focus_point, layout
 from ..errors import ConfigError
 
 SCENES = ("object", "forward", "unbounded")
@@ -146,17 +146,6 @@ def average_pose(poses: np.ndarray) -> np.ndarray:
     out = np.eye(4)
     out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = right, np.cross(back, right), back, poses[:, :3, 3].mean(0)
     return out
-
-
-def focus_point(poses: np.ndarray) -> np.ndarray:
-    """The point nearest to every camera's optical axis (least squares), or the centres' mean where the axes are
-    (nearly) parallel."""
-    a = -poses[:, :3, 2]
-    P = np.eye(3)[None] - a[:, :, None] * a[:, None, :]            # projectors across each axis
-    M, v = P.sum(0), np.einsum("nij,nj->i", P, poses[:, :3, 3])
-    if np.linalg.cond(M) > 1e6:
-        return poses[:, :3, 3].mean(0)
-    return np.linalg.solve(M, v)
 
 
 def edge_rays(dataset: Dataset) -> tuple[np.ndarray, np.ndarray]:

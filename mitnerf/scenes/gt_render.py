@@ -65,9 +65,6 @@ def all_lights_integrator():
                 result += dr.select(visible, f * weight, 0.0)
             return result, valid, []
 
-        def aov_names(self):
-            return []
-
         def to_string(self):
             return "AllLightsIntegrator[]"
 

@@ -16,7 +16,7 @@ from ...errors import ConfigError, DataError, MitnerfError, Note
 from ..cameras import Cameras
 from ..dataset import Dataset, Split, box_downscale
 from ..lens import COEFFICIENTS, fold_radius, jacobian, undistort
-from .common import as_rgba, check_focal, check_memory, image_size, number, read_image, read_meta
+from .common import as_rgba, check_focal, number, read_meta, read_view, view_size
 
 HOLDOUT = 8
 """Where a capture names no split, image ``i`` is a test view when ``i % 8 == 0`` (NeRF's LLFF protocol) and
@@ -116,37 +116,20 @@ def warn_skipped(where: str, missing: list, total: int) -> None:
                       "skipped them", Note, stacklevel=2)
 
 
-def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] | None = None,
-               scale_to: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
     """Views of one size as ``(colour [n, h, w, 3] premultiplied by alpha, alpha [n, h, w])`` float32, box-filtered
     by ``downscale`` (views one pixel wide, 2D, along their rows only): the image's own alpha, or ``masks`` (grey,
-    1 = the object) when given. Sizes are checked from the headers first, and the memory of the result
-    (``scale_to``: the size the views must have)."""
-    sizes = {image_size(p) for p in paths}
-    if len(sizes) != 1:
-        raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all views need one resolution: "
-                        "resize them")
-    H, W = sizes.pop()
-    if scale_to is not None and (H, W) != scale_to:
-        raise DataError(f"{where}: images are {W} x {H} pixels, expected {scale_to[1]} x {scale_to[0]}; fix the "
-                        "camera file or the images")
+    1 = the object) when given. Sizes and the memory of the result are checked from the headers first
+    (:func:`~.common.view_size`)."""
+    H, W = view_size(paths, where, downscale)
     cols = 1 if W == 1 else downscale                  # a 2D view keeps its one column
     h, w = H // downscale, W // cols
-    if min(h, w) < 1:
-        raise DataError(f"{where}: downscale {downscale} leaves no pixel of {W} x {H} views; choose a smaller one")
-    check_memory(len(paths) * h * w, where)
     color, alpha = np.empty((len(paths), h, w, 3), np.float32), np.empty((len(paths), h, w), np.float32)
     for i, p in enumerate(tqdm(paths, desc=f"read {Path(where).name}", unit="view", delay=1, leave=False)):
-        rgba = as_rgba(read_image(p))
-        if rgba.shape[:2] != (H, W):                # replaced by another image since its header was read
-            raise DataError(f"{p} is now {rgba.shape[1]} x {rgba.shape[0]} pixels, not the {W} x {H} its header "
-                            "said a moment ago: it changed while it was read; run again once it is written")
+        rgba = as_rgba(read_view(p, (H, W)))
         if masks is not None:
-            m = as_rgba(read_image(masks[i]))
-            if m.shape[:2] != (H, W):
-                raise DataError(f"{masks[i]} is {m.shape[1]} x {m.shape[0]} pixels but its view is {W} x {H}; "
-                                "a mask needs the size of its view")
-            rgba[..., 3] = m[..., 0]
+            rgba[..., 3] = as_rgba(read_view(masks[i], (H, W), "a mask"))[..., 0]
         rgba[..., :3] *= rgba[..., 3:]
         small = box_downscale(rgba[None], downscale, cols)[0]
         color[i], alpha[i] = small[..., :3], small[..., 3]
@@ -157,12 +140,9 @@ def capture_dataset(path: Path, fmt: str, views: Split, split: dict, downscale: 
     """The dataset of a capture's ``views`` cut into ``split`` (indices per split); its meta: mitnerf.json's where there
     is one (its near and far first, else ``near_far()``), with ``format``, ``scene``, ``info`` and the
     ``downscale`` (when > 1)."""
-    meta = read_meta(path)
-    meta.setdefault("format", fmt)
+    meta = read_meta(path, fmt, downscale)
     meta.setdefault("scene", path.name)
     meta.update(info)
-    if downscale > 1:
-        meta["downscale"] = downscale
     near, far = (meta["near"], meta["far"]) if "near" in meta and "far" in meta else near_far()
     return Dataset({s: views.subset(i) for s, i in split.items()}, float(near), float(far), meta)
 
@@ -174,6 +154,17 @@ def layout(poses: np.ndarray) -> str:
     mean = axes.sum(0)
     norm = np.linalg.norm(mean)
     return "forward" if norm > 0 and (axes @ mean / norm).min() >= np.cos(np.radians(FORWARD_CONE)) else "around"
+
+
+def focus_point(poses: np.ndarray) -> np.ndarray:
+    """The point nearest to every camera's optical axis (least squares), or the centres' mean where the axes are
+    (nearly) parallel."""
+    a = -poses[:, :3, 2]
+    P = np.eye(3)[None] - a[:, :, None] * a[:, None, :]            # projectors across each axis
+    M, v = P.sum(0), np.einsum("nij,nj->i", P, poses[:, :3, 3])
+    if np.linalg.cond(M) > 1e6:
+        return poses[:, :3, 3].mean(0)
+    return np.linalg.solve(M, v)
 
 
 def near_far(cameras: Cameras, bounds: np.ndarray) -> tuple[float, float]:

@@ -106,7 +106,7 @@ def read_colmap(path: str | Path, downscale: int = 1) -> Dataset:
     cams = Cameras(poses, K[:, 0] * s[0], H, W, K[:, 1] * s[1], K[:, 2] * s[2], K[:, 3] * s[3], K[:, 4:])
     check_lens(cams, where)
     box = max(1, downscale // N)
-    color, alpha = read_views([paths[i] for i in keep], box, str(images), scale_to=(H, W))
+    color, alpha = read_views([paths[i] for i in keep], box, str(images))
     cams = cams.downscaled(box) if box > 1 else cams
     bounds = view_bounds(cams, model.points, where)
     info = {} if bounds is None else {"bounds": bounds.tolist(),

@@ -25,7 +25,7 @@ import numpy as np
 
 from ...errors import DataError
 from .capture import MAX_VIEWS
-from .common import integer
+from .common import integer, read_file
 
 MODEL_IDS = {0: ("SIMPLE_PINHOLE", 3), 1: ("PINHOLE", 4), 2: ("SIMPLE_RADIAL", 4), 3: ("RADIAL", 5),
              4: ("OPENCV", 8), 5: ("OPENCV_FISHEYE", 8), 6: ("FULL_OPENCV", 12), 7: ("FOV", 5),
@@ -65,13 +65,7 @@ def read_model(folder: Path) -> Model:
 
 class _Text:
     def __init__(self, path: Path):
-        self.path = path
-        try:
-            self.lines = path.read_text(encoding="utf-8").splitlines()
-        except OSError as exc:
-            raise DataError(f"cannot read {path}: {exc.strerror}; check the path and its permissions") from None
-        except UnicodeDecodeError:
-            raise DataError(f"{path} is not UTF-8 text; export the model again") from None
+        self.path, self.lines = path, read_file(path, "export the model again").splitlines()
 
     def _rows(self):
         return [(i + 1, line) for i, line in enumerate(self.lines) if not line.lstrip().startswith("#")]
@@ -128,12 +122,7 @@ class _Text:
 
 class _Binary:
     def __init__(self, path: Path):
-        self.path = path
-        try:
-            self.data = path.read_bytes()
-        except OSError as exc:
-            raise DataError(f"cannot read {path}: {exc.strerror}; check the path and its permissions") from None
-        self.at = 0
+        self.path, self.data, self.at = path, read_file(path, binary=True), 0
 
     def take(self, fmt: str) -> tuple:
         size = struct.calcsize("<" + fmt)

@@ -31,16 +31,21 @@ BYTES_PER_PIXEL = 96
 _TYPES = {dict: "an object", list: "a list", str: "a string", (int, float): "a number"}
 
 
-def read_json(path: Path) -> dict:
-    path = Path(path)
+def read_file(path: Path, fix: str = "", binary: bool = False) -> str | bytes:
+    """A file's UTF-8 text (``fix``: what to do with one that is not UTF-8), or its bytes; one line where it cannot
+    be read."""
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataError(f"{path} does not exist; point at a dataset folder written by `mitnerf dataset`") from None
+        return path.read_bytes() if binary else path.read_text(encoding="utf-8")
     except OSError as exc:
         raise DataError(f"cannot read {path}: {exc.strerror}; check the path and its permissions") from None
     except UnicodeDecodeError:
-        raise DataError(f"{path} is not UTF-8 text; fix or regenerate it") from None
+        raise DataError(f"{path} is not UTF-8 text; {fix}") from None
+
+
+def read_json(path: Path) -> dict:
+    path = Path(path)
+    try:
+        data = json.loads(read_file(path, "fix or regenerate it"))
     except json.JSONDecodeError as exc:
         raise DataError(f"{path} is not valid JSON ({exc.msg} at line {exc.lineno}); fix or regenerate it") from None
     except RecursionError:
@@ -164,6 +169,22 @@ def image_size(path: Path) -> tuple[int, int]:
     return h, w
 
 
+def view_size(paths: list[Path], where: str, downscale: int = 1) -> tuple[int, int]:
+    """``(H, W)`` that every image of ``paths`` has, from their headers; refused when they differ, or when the views
+    box-filtered by ``downscale`` (a view one pixel wide, 2D, keeps its column) have no pixel or do not fit in
+    memory (:func:`check_memory`)."""
+    sizes = {image_size(p) for p in paths}
+    if len(sizes) != 1:
+        raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all views need one resolution: "
+                        "resize them")
+    H, W = sizes.pop()
+    h, w = H // downscale, W // (1 if W == 1 else downscale)
+    if min(h, w) < 1:
+        raise DataError(f"{where}: downscale {downscale} leaves no pixel of {W} x {H} views; choose a smaller one")
+    check_memory(len(paths) * h * w, where)
+    return H, W
+
+
 def read_image(path: Path) -> np.ndarray:
     """An 8- or 16-bit image as float32 in [0, 1], ``[H, W]`` or ``[H, W, C]``."""
     import imageio.v3 as iio
@@ -194,6 +215,20 @@ def read_image(path: Path) -> np.ndarray:
     if not np.isfinite(out).all():
         raise DataError(f"image {path} contains NaN or infinite pixels; replace the file")
     return out
+
+
+def read_view(path: Path, size: tuple[int, int], what: str = "") -> np.ndarray:
+    """:func:`read_image` of an image that must be ``size`` ``(H, W)``: ``what`` it is (``a mask``) where that is a
+    rule (it needs the size of its view), else the size its header gave a moment before (refused as changed)."""
+    H, W = size
+    h, w = image_size(path) if what else size
+    if (h, w) != (H, W):
+        raise DataError(f"{path} is {w} x {h} pixels but its view is {W} x {H}; {what} needs the size of its view")
+    img = read_image(path)
+    if img.shape[:2] != (H, W):
+        raise DataError(f"{path} is now {img.shape[1]} x {img.shape[0]} pixels, not the {W} x {H} its header said a "
+                        "moment ago: it changed while it was read; run again once it is written")
+    return img
 
 
 def write_png(path: Path, image: np.ndarray) -> None:
@@ -270,6 +305,14 @@ def read_npy(path: Path, shape: tuple, where: str, dtype=np.float32) -> np.ndarr
     return a
 
 
+def all_or_none(have: list[bool], names: list, where: str, what: str) -> bool:
+    """Whether every view has ``what`` (``have[i]``: view ``names[i]`` has it); refused when only some have it."""
+    if any(have) and not all(have):
+        raise DataError(f"{where}: {names[have.index(False)]} has no {what} while other views have theirs; restore "
+                        "it, or remove it from every view")
+    return all(have)
+
+
 def check_memory(n_pixels: int, where: str) -> None:
     """Refuse, before loading, a dataset whose pixels would not fit in the machine's memory."""
     need = n_pixels * BYTES_PER_PIXEL
@@ -289,12 +332,11 @@ def write_meta(folder: Path, dataset, fmt: str) -> None:
     (folder / META).write_text(json.dumps(meta, indent=1))
 
 
-def read_meta(folder: Path) -> dict:
-    """Our provenance file, when there is one (checked like any input)."""
+def read_meta(folder: Path, fmt: str | None = None, downscale: int = 1) -> dict:
+    """Our provenance file, when there is one (checked like any input), with the ``format`` ``fmt`` where it names
+    none and the ``downscale`` the views are read at (when > 1)."""
     path = Path(folder) / META
-    if not path.exists():
-        return {}
-    meta = read_json(path)
+    meta = read_json(path) if path.exists() else {}
     for key in ("near", "far"):
         if key in meta:
             number(meta[key], f"{path}: {key!r}", 0, 1e6, strict_lo=False)
@@ -317,4 +359,8 @@ def read_meta(folder: Path) -> dict:
         raise DataError(f"{path}: 'background' must be [r, g, b]; fix or delete the key")
     for v in bg:
         number(v, f"{path}: a background value", 0, 1, strict_lo=False)
+    if fmt:
+        meta.setdefault("format", fmt)
+    if downscale > 1:
+        meta["downscale"] = downscale
     return meta

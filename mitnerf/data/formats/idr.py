@@ -29,12 +29,12 @@ from ...errors import DataError
 from ..cameras import Cameras
 from ..dataset import Dataset, Split, bounds_from_cameras
 from .capture import IMAGE_SUFFIXES, capture_dataset, check_downscale, check_intrinsics, hold_out, read_views
-from .common import check_memory, check_poses, image_size, npz_shapes, read_npz, write_meta, write_png
+from .colmap import FLIP
+from .common import check_poses, npz_shapes, read_npz, view_size, write_meta, write_png
 
 CAMERA_FILES = ("cameras_sphere.npz", "cameras.npz")
 MAX_SKEW = 0.05
 """Pixels: the most K's skew may shift a pixel across the image's height (mitnerf's cameras have none)."""
-FLIP = np.diag([1.0, -1.0, -1.0, 1.0])
 
 
 def camera_file(root: Path) -> Path | None:
@@ -73,8 +73,7 @@ def read_idr(path: str | Path, downscale: int = 1) -> Dataset:
     cams = [_camera(data[f"world_mat_{i}"], data[f"scale_mat_{i}"], f"{where}: image {i}") for i in range(n)]
     K, poses = np.array([c[0] for c in cams]), np.array([c[1] for c in cams])
     check_poses(poses, where)
-    H, W = image_size(images[0])
-    check_memory(n * (H // downscale) * (W // downscale), str(path))
+    H, W = view_size(images, str(images[0].parent), downscale)
     skew = np.abs(K[:, 0, 1]) * H / K[:, 1, 1]
     if skew.max() > MAX_SKEW:
         raise DataError(f"{where}: image {int(skew.argmax())}'s K has a skew shifting pixels by {skew.max():.3g} px "

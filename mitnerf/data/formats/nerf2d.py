@@ -23,8 +23,8 @@ from ..cameras import Cameras
 from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras
 from .capture import check_downscale
-from .common import (as_rgba, check_focal, check_memory, get, image_size, read_image, read_poses,
-                     read_json, read_meta, read_npz, write_meta, write_png)
+from .common import (all_or_none, as_rgba, check_focal, get, read_poses, read_json, read_meta, read_npz, read_view,
+                     view_size, write_meta, write_png)
 
 
 def write_nerf2d(dataset: Dataset, folder: Path) -> None:
@@ -60,16 +60,6 @@ def _column(a: np.ndarray, H: int, what: str, channels: int | None = None) -> np
     return a.reshape((H, 1, c) if channels else (H, 1))
 
 
-def _row(path: Path, H: int) -> np.ndarray:
-    """A NeRF2D view (a 1 x H or H x 1 image) as ``[H, 1, 4]``; refused when it is no longer the size its header
-    said (replaced while it was read)."""
-    img = as_rgba(read_image(path))
-    if img.shape[0] * img.shape[1] != H:
-        raise DataError(f"{path} is now {img.shape[1]} x {img.shape[0]} pixels, not the {H} its header said a "
-                        "moment ago: it changed while it was read; run again once it is written")
-    return img.reshape(H, 1, 4)
-
-
 def _read_split(d: Path) -> Split:
     where = str(d / "transforms.json")
     data = read_json(d / "transforms.json")
@@ -83,31 +73,20 @@ def _read_split(d: Path) -> Split:
     if found != n or not all(p.exists() for p in pngs):
         raise DataError(f"{d}: transforms.json has {n} poses but the folder has {found} cam-*.png images; "
                         "every frame i needs its cam-i.png")
-    sizes = {image_size(p) for p in pngs}
-    if len(sizes) != 1:
-        raise DataError(f"{d}: images have different sizes {sorted(sizes)}; all views need one resolution")
-    h, w = sizes.pop()
+    h, w = view_size(pngs, str(d))
     if min(h, w) != 1:
         raise DataError(f"{d}: views are {h} x {w} pixels; NeRF2D views are one pixel wide (H x 1)")
     H = max(h, w)
-    check_memory(n * H, str(d))
     focal = check_focal(get(data, "focal", (int, float), where), H, where)
-    img = np.stack([_row(p, H) for p in tqdm(pngs, desc=f"read {d.parent.name}/{d.name}", unit="view", delay=1,
-                                            leave=False)])
+    img = np.stack([as_rgba(read_view(p, (h, w))).reshape(H, 1, 4)      # 1 x H or H x 1 images as [H, 1, 4]
+                    for p in tqdm(pngs, desc=f"read {d.parent.name}/{d.name}", unit="view", delay=1, leave=False)])
     color, alpha = img[..., :3], img[..., 3]
     depth = mask = linear = None
     npz = [d / f"cam-{i}.npz" for i in range(n)]
-    have = [p.exists() for p in npz]
-    if any(have) and not all(have):
-        raise DataError(f"{d}: {npz[have.index(False)].name} is missing while other views have their .npz; "
-                        "restore it (or delete them all)")
-    if all(have):
+    if all_or_none([p.exists() for p in npz], [p.name for p in pngs], str(d), ".npz"):
         files = [read_npz(p) for p in npz]
         for key in ("depth_map", "rgb_linear", "alpha", "mask"):
-            present = [key in f for f in files]
-            if any(present) and not all(present):
-                raise DataError(f"{d}: {npz[present.index(False)].name} lacks {key!r}, which the other views' "
-                                ".npz files hold; regenerate the dataset")
+            all_or_none([key in f for f in files], [p.name for p in npz], str(d), repr(key))
         stack = lambda key, c=None: np.stack([_column(f[key], H, str(p), c) for f, p in zip(files, npz)])
         if "depth_map" in files[0]:                 # each key is in every file or in none (checked above)
             raw = stack("depth_map").astype(np.float32)
@@ -132,14 +111,11 @@ def read_nerf2d(path: str | Path, downscale: int = 1) -> Dataset:
     splits = {s: _read_split(path / s) for s in SPLITS if (path / s / "transforms.json").exists()}
     if "train" not in splits:
         raise DataError(f"{path} has no train/transforms.json; point at a NeRF2D dataset folder")
-    meta = read_meta(path)
+    meta = read_meta(path, "nerf2d", downscale)
     near, far = meta.get("near"), meta.get("far")
     if near is None or far is None:         # foreign datasets: from the depth maps when present, else from the rig
         depths = [s.depth[np.isfinite(s.depth)] for s in splits.values() if s.depth is not None]
         depths = np.concatenate(depths) if depths else np.zeros(0)
         near, far = ((max(0.05, depths.min() - 0.5), depths.max() + 1.0) if depths.size
                      else bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0))
-    meta.setdefault("format", "nerf2d")
-    if downscale > 1:
-        meta["downscale"] = downscale
     return Dataset({s: v.downscaled(downscale) for s, v in splits.items()}, float(near), float(far), meta)

@@ -45,8 +45,8 @@ from ..color import display_color
 from ..dataset import SPLITS, Dataset, Split, bounds_from_cameras, box_downscale
 from ..lens import COEFFICIENTS, MODELS
 from .capture import absent, check_downscale, check_intrinsics, check_lens, read_views, warn_skipped
-from .common import (as_rgba, check_focal, check_memory, get, image_size, number, read_image, read_poses, read_json,
-                     read_meta, read_npy, write_meta, write_png)
+from .common import (all_or_none, as_rgba, check_focal, get, number, read_poses, read_json, read_meta, read_npy,
+                     read_view, view_size, write_meta, write_png)
 
 NS_DEPTH_UNIT = 1e-3
 
@@ -201,16 +201,6 @@ def _intrinsics(header: dict, frames: list, where: str, W: int, H: int, dim: int
     return {"fx": out["fx"], "cy": out["cy"]}
 
 
-def _plane(img: np.ndarray, H: int, W: int, path: Path) -> np.ndarray:
-    """A one-channel image (a depth map or mask) of the views' size ``H x W``."""
-    if img.ndim == 3:
-        img = img[..., 0]
-    if img.shape != (H, W):
-        raise DataError(f"{path} is {img.shape[1]} x {img.shape[0]} pixels but the views are {W} x {H}; "
-                        "depth maps and masks need the size of their view")
-    return img
-
-
 def _path(root: Path, value, where: str, suffix: str = ".png") -> Path:
     if not isinstance(value, str) or not value:
         raise DataError(f"{where}: a frame's path must be a non-empty string, got {json.dumps(value)[:40]}")
@@ -227,13 +217,9 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
         raise DataError(f"{where} lists no frames; add frames or drop the split")
     poses = read_poses(frames, 4, where)
     paths = [_path(root, f.get("file_path"), where) for f in frames]
-    sizes = {image_size(p) for p in paths}
-    if len(sizes) != 1:
-        raise DataError(f"{where}: images differ in size {sorted(sizes)[:3]}; all frames need one resolution")
-    H, W = sizes.pop()
+    H, W = view_size(paths, where, downscale)
     if dim == 2 and W != 1:
         raise DataError(f"{where}: a 2D dataset has views one pixel wide, these are {W} wide")
-    check_memory(len(frames) * (H // downscale) * (W if dim == 2 else W // downscale), where)
     cams = Cameras(pose_3d_to_2d(poses) if dim == 2 else poses, height=H, width=W,
                    **_intrinsics(header, frames, where, W, H, dim))
     check_lens(cams, where)
@@ -243,7 +229,8 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
     H, W = cams.height, cams.width
     depth = mask = linear = None
     if downscale == 1 and all("depth_file_path" in f for f in frames):          # every frame is a dict
-        raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy" else _plane(read_image(p), H, W, p)
+        raw = np.stack([read_npy(p, (H, W), where) if p.suffix == ".npy"
+                        else as_rgba(read_view(p, (H, W), "a depth map"))[..., 0]
                         for p in (_path(root, f["depth_file_path"], where, ".npy") for f in frames)])
         if not np.isfinite(raw).all() or (raw < 0).any():
             raise DataError(f"{where}: depth maps must be finite and >= 0 (0 on a miss)")
@@ -253,15 +240,11 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
         depth = np.where(raw > 0, raw, np.inf).astype(np.float32)
         mask = np.isfinite(depth)
     if all("mask_path" in f for f in frames):
-        mask = np.stack([_plane(as_rgba(read_image(p))[..., 0], *full, p)
+        mask = np.stack([as_rgba(read_view(p, full, "a mask"))[..., 0]
                          for p in (_path(root, f["mask_path"], where) for f in frames)])
         mask = box_downscale(mask, downscale, cols) > 0.5
     lpaths = [p.with_name(p.stem + "_linear.npy") for p in paths]
-    have = [p.exists() for p in lpaths]
-    if any(have) and not all(have):
-        raise DataError(f"{where}: {lpaths[have.index(False)]} is missing while other frames have their "
-                        "_linear.npy; restore it (or delete them all)")
-    if all(have):
+    if all_or_none([p.exists() for p in lpaths], paths, where, "_linear.npy"):
         lin = box_downscale(np.stack([read_npy(p, (*full, 4), where) for p in lpaths]), downscale, cols)
         linear, a = lin[..., :3], lin[..., 3]
         if a.min() < 0 or a.max() > 1:
@@ -325,13 +308,9 @@ def read_transforms(path: str | Path, downscale: int = 1) -> Dataset:
     if "train" not in splits:
         raise DataError(f"{path} has neither transforms_train.json nor transforms.json with training frames; "
                         "point at a Blender/nerfstudio dataset folder")
-    meta = read_meta(path)
-    meta.setdefault("format", fmt)
-    if downscale > 1:
-        meta["downscale"] = downscale
+    meta = read_meta(path, fmt, downscale)
     near, far = meta.get("near"), meta.get("far")
     if near is None or far is None:       # Blender scenes: 2..6 at radius 4
         near, far = bounds_from_cameras([s.cameras for s in splits.values()], 2.0, 0.0)
-    if skipped:
-        warn_skipped(str(path / "transforms.json"), skipped, listed)
+    warn_skipped(str(path / "transforms.json"), skipped, listed)
     return Dataset(splits, float(near), float(far), meta)

@@ -8,20 +8,15 @@ from ...fields.base import cell_corners
 from ...fields.hashenc import PRIMES, HashLayout
 
 
-def lattice_index(key: list, res: int, size: int, dense: bool) -> torch.Tensor:
-    """Twin of :func:`mitnerf.fields.hashenc.lattice_index` (uint32 arithmetic in int64)."""
-    mask, index = 0xFFFFFFFF, torch.zeros_like(key[0])
+def vertex_entry(key: list, level: int, layout) -> torch.Tensor:
+    """Twin of :func:`mitnerf.fields.hashenc.vertex_entry` (uint32 arithmetic in int64)."""
+    mask, res, index = 0xFFFFFFFF, layout.resolutions[level], torch.zeros_like(key[0])
     for d, k in enumerate(key):
-        if dense:
+        if layout.dense[level]:
             index = (index + k * res ** d) & mask
         else:
             index = index ^ ((k * PRIMES[d]) & mask)     # uint32 multiply, in int64
-    return index % size
-
-
-def _entry(key: list, level: int, layout: HashLayout) -> torch.Tensor:
-    return layout.offsets[level] + lattice_index(key, layout.resolutions[level], layout.sizes[level],
-                                                 layout.dense[level])
+    return index % layout.sizes[level]
 
 
 def hash_encode(table: torch.Tensor, x: torch.Tensor, layout: HashLayout) -> torch.Tensor:
@@ -33,7 +28,7 @@ def hash_encode(table: torch.Tensor, x: torch.Tensor, layout: HashLayout) -> tor
         p0 = torch.floor(pos)
         acc = 0.0
         for key, weight in cell_corners(list(p0.long().unbind(1)), list((pos - p0).unbind(1))):
-            base = _entry(key, level, layout) * F
+            base = (layout.offsets[level] + vertex_entry(key, level, layout)) * F
             acc = acc + torch.stack([table[base + k] for k in range(F)], 1) * weight[:, None]
         out.append(acc)
     return torch.cat(out, dim=1)

@@ -7,15 +7,10 @@ import torch
 from torch import nn
 
 from ...errors import CheckpointError
-from ...fields.hashlinear import HashLinearConfig, Levels, levels_of
+from ...fields.hashlinear import HashLinearConfig, levels_of
 from .grid import harmonic_rgb, lattice_corners, tv_vertices
-from .hashenc import lattice_index
+from .hashenc import vertex_entry
 from .mlp import TwinField, density_activation
-
-
-def vertex_entry(key: list, level: int, lv: Levels) -> torch.Tensor:
-    """``key``: D int64 tensors ``[n]`` -> entry within the level ``[n]``."""
-    return lattice_index(key, lv.resolutions[level], lv.sizes[level], lv.dense[level])
 
 
 class HashLinearField(TwinField):

@@ -8,21 +8,17 @@ import numpy as np
 import torch
 from torch import nn
 
-from ...render.pipeline import RenderConfig, join_params, split_params, sum_terms
+from ...render.pipeline import FieldSet, RenderConfig, join_params, split_params, sum_terms
 from .occupancy import occupied_samples
 from .samplers import Stratified, importance_sample
 from .volume import volume_render
 
 
-class Model(nn.Module):
+class Model(nn.Module, FieldSet):
     def __init__(self, fields: dict, render_cfg: RenderConfig):
         super().__init__()
         self.fields = nn.ModuleDict(fields)
         self.render_cfg = render_cfg
-
-    @property
-    def dim(self) -> int:
-        return self.fields["coarse"].dim
 
     def to_numpy(self) -> dict:
         return join_params(**{g: f.to_numpy() for g, f in self.fields.items()})
@@ -37,9 +33,6 @@ class Model(nn.Module):
 
     def regularizer(self, seed: int):
         return sum_terms(f.regularizer(seed) for f in self.fields.values())
-
-    def final_field(self) -> str:
-        return "fine" if "fine" in self.fields else "coarse"
 
     def density(self, x: torch.Tensor) -> torch.Tensor:
         return self.fields[self.final_field()].density(x)
