@@ -238,40 +238,31 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(n_coarse=128), dict(time_budget=10.0, lr=0.3, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
-       "dense 2D grid, view-dependent colour (harmonics to degree 2: a highlight is narrower than one cosine), "
-       "coarse to fine 129 -> 257, a high learning rate (a budget of seconds buys few steps, in which density "
-       "has to go from transparent to opaque), colour TV + distortion + opacity "
-       "losses, free space and solid matter where the data has depth (free space from alpha too), 10 s: the default "
-       "for 2D datasets"),
+       "harmonics to degree 2 (a highlight is narrower than one cosine); a high learning rate (a budget of seconds "
+       "buys few steps, in which density has to go from transparent to opaque); free space from alpha too"),
     _r("vanilla-2d", 2, "vanilla", dict(width=64, depth=4, pos_L=8, dir_L=4, mode="native"), dict(n_coarse=64),
        dict(time_budget=10.0, lr=5e-3, lr_final=2e-4, batch_rays=1024, **_BUDGET),
-       "NeRF MLP 4 x 64, L = 8, 10 s: the reference architecture, for comparisons at equal time (it needs minutes "
-       "to match a grid: --time-budget 300)"),
+       "for comparisons at equal time (it needs minutes to match a grid: --time-budget 300)"),
     _r("hashgrid-2d", 2, "hashgrid", dict(n_levels=8, log2_hashmap_size=14, hidden=16, geo_features=7, mode="tensor"),
        dict(n_coarse=48),
        dict(time_budget=10.0, lr=0.05, lr_final=0.005, batch_rays=1024, **_BUDGET),
-       "multi-resolution hash grid + tiny MLPs, a high learning rate (a lower one fits the training views and not "
-       "the test views), no occupancy grid (in 2D it skips less than it costs, and pruning in the first steps can "
-       "leave a fit in a poor optimum), 10 s"),
+       "a high learning rate (a lower one fits the training views and not the test views); no occupancy grid (in 2D "
+       "it skips less than it costs, and pruning in the first steps can leave a fit in a poor optimum)"),
     _r("hashlinear-2d", 2, "hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13,
                                               view_levels=1, sh_degree=2, initial_levels=2, add_level_at=(150,)),
        dict(n_coarse=128), dict(time_budget=10.0, lr=0.3, lr_final=0.005, batch_rays=1024, distortion_weight=1e-3,
                                 opacity_weight=1e-3, free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.15,
                                 **_BUDGET),
-       "hash grid decoded linearly: levels 65 and 129 dense, 257 hashed into 2^13 entries, summed into the dense "
-       "grid's density and colour (view harmonics to degree 2 on the coarsest level); the 257 level joins at step 150; "
-       "the grid-2d recipe's losses and rate, 10 s, about a sixth of grid-2d's parameters"),
+       "the levels summed into one density and colour (view harmonics on the coarsest level); grid-2d's losses and "
+       "rate"),
     _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-4,
                                   view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
-       "dense voxel grid, view-dependent colour, its lattice from the data (1.5 vertices per pixel footprint at the "
-       "scene, at most 161^3: the grid's training state grows with its cube) reached coarse to fine from a quarter "
-       "of it at steps 200 and 600, an occupancy sample per lattice spacing, batches of 8192 rays, a high learning "
-       "rate (a budget of seconds buys few steps), a colour TV of 3e-4 against 2D's 1e-2 (few views of 100 x 100 "
-       "carry texture and highlights: 2D's weight blurs both away), distortion + opacity losses, free space and "
-       "solid matter where the data has depth or alpha, 60 s: the default for 3D datasets",
+       "the lattice capped at 161^3 (the grid's training state grows with its cube); a high learning rate (a budget "
+       "of seconds buys few steps); a colour TV 30 times weaker than 2D's (views of 100 x 100 carry texture and "
+       "highlights that 2D's weight blurs away)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
@@ -279,34 +270,30 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
-       "hash grid decoded linearly: four levels, one per doubling up to the data's lattice (1.5 vertices per pixel "
-       "footprint, at most 385^3), the two coarsest dense, the finer ones hashed into 2^19 entries, joining at steps "
-       "300 and 700; grid-3d's losses, occupancy grid, batch and learning rate, 60 s; a few million parameters where "
-       "grid-3d has tens of millions",
+       "one level per doubling up to the data's lattice (at most 385^3), the finer ones hashed; grid-3d's losses, "
+       "occupancy grid, batch and rate",
        Sizing(vertices_per_pixel=1.5, max_resolution=385, doublings=3, samples_per_vertex=1.0)),
     _r("vanilla-3d", 3, "vanilla", dict(width=64, depth=4, pos_L=10, dir_L=4, mode="native"),
        dict(n_coarse=64, n_fine=32),
        dict(time_budget=60.0, lr=5e-3, lr_final=2e-4, batch_rays=2048, **_BUDGET),
-       "NeRF MLP 4 x 64, L = 10, hierarchical 64 + 32, 60 s: the reference architecture, for comparisons at equal "
-       "time"),
+       "NeRF's hierarchical sampling, for comparisons at equal time"),
     _r("hashgrid-3d", 3, "hashgrid", dict(n_levels=12, log2_hashmap_size=16, base_resolution=16, max_resolution=512,
                                           mode="tensor"),
        dict(n_coarse=48, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
        dict(time_budget=60.0, lr=0.01, lr_final=0.001, batch_rays=2048, **_BUDGET),
-       "hash grid 12 levels, occupancy grid, 60 s"),
+       "instant-ngp's levels and networks with an occupancy grid"),
     _r("grid-forward", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000), tv_weight=1e-4,
                                        view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, scene="forward"),
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
-       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity, 600 s"),
+       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity"),
     _r("grid-unbounded", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000),
                                          tv_weight=1e-4, view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, scene="unbounded", occupancy=dict(enabled=True, resolution=64, march_bins=512)),
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
-       "grid-3d's grid in mip-NeRF 360's contracted space, samples linear then even in disparity, occupancy grid, "
-       "600 s"),
+       "grid-3d's grid in mip-NeRF 360's contracted space, samples linear then even in disparity"),
     _r("pixelnerf-2d", 2, "pixelnerf", {}, dict(n_coarse=32),
        dict(iters=8000, time_budget=150.0, lr=2e-3, lr_final=2e-4, batch_rays=32, val_every=0),
        "2D pixelNeRF trained across scenes (`mitnerf experiment pixelnerf`): 32 rays x 32 samples per step"),
