@@ -28,8 +28,9 @@ else:                                  # run as python benchmarks/captures.py
 
 CAPTURES = {"fern": ("llff/fern", ["--downscale", "8"]), "fox": ("instant_ngp/fox", [])}
 """Each capture's folder under the data folder, and the flags that select its views."""
-ANCHORS = {"fern": [("NeRF", "25.17", "about a day, 1008 x 756", "GPU"), ("Plenoxels", "25.46", "1008 x 756", "GPU")]}
-"""Published test PSNR on LLFF's protocol (every 8th view held out): (method, dB, training, GPU)."""
+ANCHORS = {"fern": [("NeRF", "25.17", "about a day", "GPU", "1008 x 756"),
+                    ("Plenoxels", "25.46", "", "GPU", "1008 x 756")]}
+"""Published test PSNR on LLFF's protocol (every 8th view held out): (method, dB, training, GPU, views' size)."""
 
 
 def fit(name: str, data: Path, budget: float, out: Path) -> dict:
@@ -40,9 +41,10 @@ def fit(name: str, data: Path, budget: float, out: Path) -> dict:
     load = os.getloadavg()[0]
     lines, wall = mitnerf(*args)
     manifest = read_manifest(out / name)
-    metrics, (w, h) = manifest["metrics"], manifest["dataset"]["cameras"]["size"]
+    metrics, (w, h) = manifest["metrics"], manifest["dataset"]["size"]
     values = {"size": f"{w} x {h}", "psnr": metrics["psnr"], "ssim": metrics["ssim"],
-              "train_s": metrics["train_time"], "steps": metrics["steps"], "wall_s": wall, "load_before": load, "load_after": os.getloadavg()[0],
+              "train_s": metrics["train_time"], "steps": metrics["steps"], "wall_s": wall, "load_before": load,
+              "load_after": os.getloadavg()[0],
               "scene": said(lines, "scene: "), "recipe": re.sub(r"^recipe (\S+):.*", r"\1", said(lines, "recipe "))}
     shown = " ".join(["python -m mitnerf", *(a.replace(str(data), "DATA") for a in args[:-3])])
     return {"values": values, "last": lines[-1], "command": shown}

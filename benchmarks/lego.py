@@ -20,8 +20,6 @@ import json
 import sys
 from pathlib import Path
 
-from PIL import Image
-
 if __package__:                        # imported as benchmarks.lego (the tests)
     from ._cli import ROOT, mitnerf, said
 else:                                  # run as python benchmarks/lego.py
@@ -45,10 +43,7 @@ def fit(data: Path, budget: str) -> dict:
     args = ["fit", "--data", str(data), "--time-budget", budget, "--out", str(out)]
     lines, wall = mitnerf(*args)
     metrics = json.loads((out / "metrics.json").read_text())
-    frame = json.loads((data / "transforms_test.json").read_text())["frames"][0]["file_path"]
-    k = json.loads((out / "manifest.json").read_text())["dataset"].get("downscale", 1)
-    with Image.open(data / (frame if frame.endswith(".png") else frame + ".png")) as im:
-        size = f"{im.width // k} x {im.height // k}"
+    size = "{} x {}".format(*json.loads((out / "manifest.json").read_text())["dataset"]["size"])
     return {"metrics": metrics, "size": size, "wall": wall, "first": said(lines, "recipe "), "last": lines[-1],
             "command": " ".join(["python -m mitnerf", *args]).replace(str(ROOT) + "/", "").replace(
                 str(ROOT.parent) + "/", "../")}
@@ -56,15 +51,15 @@ def fit(data: Path, budget: str) -> dict:
 
 def values_of(run: dict) -> dict:
     m = run["metrics"]
-    return {"size": run["size"], "psnr": m["psnr"], "ssim": m["ssim"], "train_s": m["train_time"], "steps": m["steps"],
-            "eval_s": m["eval_time"], "peak_gib": m["peak_memory"], "views": m["views"],
+    return {"size": run["size"], "psnr": m["psnr"], "ssim": m["ssim"], "train_s": m["train_time"],
+            "steps": m["steps"], "eval_s": m["eval_time"], "peak_gib": m["peak_memory"], "views": m["views"],
             "background": m["background"], "recipe": m["recipe"], "wall_s": run["wall"]}
 
 
 def summary(v: dict) -> str:
-    return (f"test PSNR {v['psnr']:.2f} dB, SSIM {v['ssim']:.3f} on {v['views']} views of {v['size']} over {v['background']}; "
-            f"{v['steps']} steps in {v['train_s']:.0f} s; evaluation {v['eval_s']:.0f} s; peak memory "
-            f"{v['peak_gib']:.2f} GiB; recipe {v['recipe']}")
+    return (f"test PSNR {v['psnr']:.2f} dB, SSIM {v['ssim']:.3f} on {v['views']} views of {v['size']} over "
+            f"{v['background']}; {v['steps']} steps in {v['train_s']:.0f} s; evaluation {v['eval_s']:.0f} s; "
+            f"peak memory {v['peak_gib']:.2f} GiB; recipe {v['recipe']}")
 
 
 def main(argv=None) -> int:

@@ -120,8 +120,9 @@ def check_value(cls, f: dataclasses.Field, value, prefix: str = ""):
             return tuple(value)
         return tuple(_number(what, v, s, integer=False) for v in value)
     if choices is not None:
+        value = int(value) if kind == "int" and isinstance(value, float) and value.is_integer() else value
         if value not in choices:
-            raise ConfigError(f"{what} must be one of {', '.join(map(str, choices))}, got {value!r}")
+            raise ConfigError(f"{what} must be one of {', '.join(map(str, choices))}, got {_got(value)}")
         return value
     if kind in _TYPES and not isinstance(value, _TYPES[kind][0]):
         raise ConfigError(f"{what} must be {_TYPES[kind][1]}, got {_got(value)}")

@@ -115,6 +115,8 @@ def test_fit_prints_and_records_the_protocol(bunny_small, tmp_path, capsys):
     assert " on 3 of 8 views, " in lines[-1]
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert (metrics["background"], metrics["views"], metrics["split_views"]) == ("black", 3, 8)
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert manifest["dataset"]["size"] == [1, 100]                # [width, height]: a 2D view is one pixel wide
 
 
 def test_rays_decoded_per_batch_train_as_rays_held_in_memory(vase_small, tmp_path):
@@ -226,6 +228,6 @@ def test_views_are_read_at_their_own_size_up_to_the_cap(vase_small, tmp_path, mo
     monkeypatch.setattr(fit_cmd, "MAX_TRAIN_PIXELS", 1000)
     ds, line = fit_cmd.read_views(tmp_path / "ds", None)
     assert (ds["train"].cameras.width, ds["test"].cameras.width) == (12, 12)
-    assert line == "views: read 2 times smaller, 12 x 12 (the 6 training views hold 0 million pixels; --downscale 1 " \
+    assert line == "views: read 2 times smaller, 12 x 12 (the 6 training views hold 3,456 pixels; --downscale 1 " \
                    "keeps them all)"
     assert fit_cmd.read_views(tmp_path / "ds", 1)[0]["train"].cameras.width == 24

@@ -29,9 +29,9 @@ from .args import (Writes, add_command, add_recipe_flags, overrides, parse, reci
 
 MAX_TRAIN_PIXELS = 100_000_000
 """Training pixels that ``fit`` reads at most unless ``--downscale`` says otherwise. Views are held in 8 bits and
-decoded per batch (4 bytes a pixel), but a reader decodes each image before it keeps the 8 bits, so reading peaks at
-several times that: a Blender scene at 800 x 800 (64 million pixels) and instant-ngp's fox (89 million) are read
-at their own size, a hundred 12-megapixel photographs four times smaller."""
+decoded per batch (4 bytes a pixel), so a Blender scene at 800 x 800 (64 million pixels) and instant-ngp's fox (89
+million) are read at their own size. Reading needs more (:data:`mitnerf.data.formats.common.BYTES_PER_PIXEL`): a
+capture that cannot be read at its own size is refused with the fix (``--downscale``)."""
 
 
 def read_views(path: str, downscale: int | None) -> tuple:
@@ -47,7 +47,7 @@ def read_views(path: str, downscale: int | None) -> tuple:
     smaller = load_dataset(path, int(dataset.meta.get("downscale", 1)) * k)
     c = smaller["train"].cameras
     return smaller, (f"views: read {k} times smaller, {c.width} x {c.height} (the {len(train)} training views hold "
-                     f"{pixels / 1e6:.0f} million pixels; --downscale 1 keeps them all)")
+                     f"{pixels:,} pixels; --downscale 1 keeps them all)")
 
 
 @dataclass(kw_only=True)

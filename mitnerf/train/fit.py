@@ -95,9 +95,9 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     bg = r.render_background()
     be = make_backend(backend, recipe.model, cfg, dataset.dim, *settle_scene(recipe, dataset))
     be.set_data(dataset["train"].rays("random" if r.background == "random" else bg, **cfg.ray_args()))
-    run = Run(be, recipe, dict(dataset.meta))
+    c = dataset["train"].cameras
+    run = Run(be, recipe, {**dataset.meta, "size": [c.width, c.height]})        # the views' size, as read
     if recipe.model.render.scene != "object":          # the camera path a video follows
-        c = dataset["train"].cameras
         run.dataset_meta["cameras"] = {"poses": c.poses.tolist(), "focal": [float(c.fx[0]), float(c.fy[0])],
                                        "size": [c.width, c.height]}
     if resume is not None:

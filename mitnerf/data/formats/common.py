@@ -26,8 +26,9 @@ from ..color import to_uint8
 META = "mitnerf.json"
 MAX_SIDE = 16384
 """Largest image side mitnerf accepts (pixels)."""
-BYTES_PER_PIXEL = 96
-"""Memory a training pixel costs: colour, coverage, depth, mask, its ray, and device copies."""
+BYTES_PER_PIXEL = 40
+"""Memory a pixel costs while its views are read (decoded to floats before their 8 bits are kept, with a margin);
+training holds the 8 bits and makes rays per batch (:mod:`mitnerf.data.rays`)."""
 _TYPES = {dict: "an object", list: "a list", str: "a string", (int, float): "a number"}
 
 
@@ -318,8 +319,9 @@ def check_memory(n_pixels: int, where: str) -> None:
     need = n_pixels * BYTES_PER_PIXEL
     avail = available_memory()
     if avail is not None and need > avail:
-        raise DataError(f"{where} has {n_pixels:,} pixels, which need about {need / 2**30:.1f} GiB to train on; "
-                        f"this machine has {avail / 2**30:.1f} GiB free: use fewer or smaller views")
+        raise DataError(f"{where} has {n_pixels:,} pixels, which need about {need / 2**30:.1f} GiB to read; "
+                        f"this machine has {avail / 2**30:.1f} GiB free: read them smaller (--downscale) or use fewer "
+                        "views")
 
 
 CAPTURE_KEYS = ("path", "bounds", "points_bounds", "scale_mat")
