@@ -30,6 +30,7 @@ import numpy as np
 from hypothesis import note, settings
 
 from mitnerf.cli import main
+from mitnerf.data.formats.common import BYTES_PER_PIXEL, MAX_SIDE
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,7 +39,6 @@ CASES: dict[str, set[str]] = defaultdict(set)
 """category -> the distinct cases tried (descriptions), reported at the end of the run."""
 
 NAN, INF = float("nan"), float("inf")
-MAX_SIDE = 16384
 
 
 def examples(weight: float) -> settings:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from hypothesis import given, strategies as st
 
-from .harness import examples, INF, MAX_SIDE, mem_total, NAN, npz_bytes, npz_with_fake, png_header
+from .harness import BYTES_PER_PIXEL, examples, INF, MAX_SIDE, mem_total, NAN, npz_bytes, npz_with_fake, png_header
 from .readers import check_reader, image_damage, meta_damage
 from .strategies import away_from, bad_bytes, bad_focal, draw_file_damage, finite, show
 
@@ -22,7 +22,7 @@ VIEWS = 6
 def too_many_pixels(data) -> tuple[int, int]:
     """``(side, n)``: ``n`` views of ``side x side`` pixels that do not fit in memory (or a side over the limit)."""
     side = data.draw(st.sampled_from([MAX_SIDE, 12000, 20000]), label="side")
-    return side, max(VIEWS, math.ceil(2 * mem_total() / (side * side * 96)))
+    return side, max(VIEWS, math.ceil(2 * mem_total() / (side * side * BYTES_PER_PIXEL)))
 
 
 def rotation_damage(data, R: np.ndarray) -> tuple[str, np.ndarray]:

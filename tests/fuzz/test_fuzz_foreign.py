@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 from hypothesis import given, strategies as st
 
-from .harness import examples, INF, MAX_SIDE, mem_total, NAN, npz_bytes, npz_with_fake, png, png_header
+from .harness import BYTES_PER_PIXEL, examples, INF, MAX_SIDE, mem_total, NAN, npz_bytes, npz_with_fake, png, png_header
 from .strategies import (
     away_from, bad_focal, draw_file_damage, draw_frames_damage, draw_json_damage, draw_pose_damage, edit_json,
     finite, NON_FINITE, show, WRONG_TYPE, WRONG_TYPE_OR_NULL)
@@ -148,7 +148,7 @@ def memory_damage(data, tj: Path, ds: Path, image: str, lists: str | None = None
     """Views so large, or so many, that they would not fit in the machine's memory (or a view
     larger than the per-side limit): refused before anything is decoded, with the estimate."""
     side = data.draw(st.sampled_from([MAX_SIDE, 12000, 20000]), label="side")
-    per_view = side * side * 96
+    per_view = side * side * BYTES_PER_PIXEL
     n = max(1, math.ceil(2 * mem_total() / per_view)) + data.draw(st.integers(0, 3), label="more")
 
     def fn():
@@ -369,7 +369,7 @@ def test_tiny_nerf_files(base, data):
             desc = f"{m} frames"
         else:
             side = data.draw(st.sampled_from([MAX_SIDE, 12000, 20000, 10 ** 6]), label="side")
-            m = max(3, math.ceil(2 * mem_total() / (side * side * 96))) + data.draw(st.integers(0, 3))
+            m = max(3, math.ceil(2 * mem_total() / (side * side * BYTES_PER_PIXEL))) + data.draw(st.integers(0, 3))
             raw = npz_with_fake({k: v for k, v in a.items() if k not in ("images", "poses")} |
                                 {"poses": np.resize(a["poses"], (m, 4, 4))},
                                 {"images": ((m, side, side, 3), np.float32)})
