@@ -102,14 +102,13 @@ class TrainingRays:
         target = color + (1.0 - alpha[:, None]) * bg
         B = len(index)
         depth, hit, free, solid = (np.zeros(B, np.float32) for _ in range(4))
-        near = self._neighbours(view, row, col)
         if self.hits is not None:
-            hits = self.hits
+            hits, near = self.hits, self._neighbours(view, row, col)
             hit = hits[index].astype(np.float32)
             depth = np.where(hit > 0, s.depth.reshape(-1)[index], 0.0)
             free = np.where(hits[near], s.depth.reshape(-1)[near], np.inf).min(axis=1)
         elif self.alpha_says:                    # empty all along where the neighbourhood's largest alpha is 0
-            free = np.where(s.covered(near).any(axis=1), 0.0, np.inf)
+            free = np.where(s.covered(self._neighbours(view, row, col)).any(axis=1), 0.0, np.inf)
         if self.solid is not None:
             solid = self.solid.reshape(-1)[index]
         f32 = lambda a: np.ascontiguousarray(a, np.float32)

@@ -116,13 +116,13 @@ def warn_skipped(where: str, missing: list, total: int) -> None:
                       "skipped them", Note, stacklevel=2)
 
 
-def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] | None = None
-               ) -> tuple[np.ndarray, np.ndarray]:
+def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] | None = None,
+               size: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Views of one size as ``(colour [n, h, w, 3] premultiplied by alpha, alpha [n, h, w])`` float32, box-filtered
     by ``downscale`` (views one pixel wide, 2D, along their rows only): the image's own alpha, or ``masks`` (grey,
     1 = the object) when given. Sizes and the memory of the result are checked from the headers first
-    (:func:`~.common.view_size`)."""
-    H, W = view_size(paths, where, downscale)
+    (:func:`~.common.view_size`), unless the caller did and gives their ``size`` ``(H, W)``."""
+    H, W = size or view_size(paths, where, downscale)
     cols = 1 if W == 1 else downscale                  # a 2D view keeps its one column
     h, w = H // downscale, W // cols
     color, alpha = np.empty((len(paths), h, w, 3), np.float32), np.empty((len(paths), h, w), np.float32)

@@ -84,7 +84,7 @@ def read_idr(path: str | Path, downscale: int = 1) -> Dataset:
     if masks is not None and len(masks) != n:
         raise DataError(f"{path}'s mask folder holds {len(masks)} masks for {n} images; masks pair with images in "
                         "sorted order: one each")
-    color, alpha = read_views(images, downscale, str(images[0].parent), masks)
+    color, alpha = read_views(images, downscale, str(images[0].parent), masks, size=(H, W))
     cameras = Cameras(poses, fx, H, W, fy, cx, cy)
     cameras = cameras.downscaled(downscale) if downscale > 1 else cameras
     return capture_dataset(path, "idr", Split(cameras, color, alpha), hold_out(n, str(path)), downscale,

@@ -223,7 +223,7 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
     cams = Cameras(pose_3d_to_2d(poses) if dim == 2 else poses, height=H, width=W,
                    **_intrinsics(header, frames, where, W, H, dim))
     check_lens(cams, where)
-    color, a = read_views(paths, downscale, where)
+    color, a = read_views(paths, downscale, where, size=(H, W))
     full, cols = (H, W), 1 if dim == 2 else downscale
     cams = cams.downscaled(downscale) if downscale > 1 else cams
     H, W = cams.height, cams.width
