@@ -177,3 +177,32 @@ def test_a_march_ends_where_transmittance_falls_to_stop():
     assert np.asarray(out[1].rgb[0])[0] == pytest.approx(1 - math.exp(-10), rel=1e-6)
     assert np.asarray(out[1].opacity)[0] == pytest.approx(1 - math.exp(-10), rel=1e-6)
     assert np.asarray(out[0].opacity)[0] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_rays_marched_grouped_by_count_give_each_ray_its_own_result():
+    # counts [3, 0, 2, 3, 1]: the march takes the rays in the order of their counts, 0, 1, 2, 3, 3
+    # (by_count's permutation), and each ray's colour, depth, opacity and gradients are those of plain AD
+    # over the same samples (an unused slot has delta 0 and adds nothing)
+    count = np.array([3, 0, 2, 3, 1], np.uint32)
+    t = np.array([[1, 1.5, 2], [3, 3, 3], [1, 2, 3], [1.2, 1.4, 2.5], [2, 3, 3]], np.float32)
+    delta = np.array([[0.5, 0.5, 1], [0, 0, 0], [1, 1, 0], [0.2, 1.1, 0.5], [1, 0, 0]], np.float32)
+    sampler = Explicit(Float(t.ravel()), 3, Float(delta.ravel()), UInt32(count))
+    from mitnerf.render.samplers import by_count
+    order = np.asarray(by_count(sampler, 5))
+    assert sorted(order) == [0, 1, 2, 3, 4] and count[order].tolist() == [0, 1, 2, 3, 3]
+    rng = np.random.default_rng(3)
+    sigma, rgb = rng.uniform(0, 3, (5, 3)), rng.uniform(0, 1, (5, 3, 3))
+    cot = [Float(rng.normal(size=5).astype(np.float32)) for _ in range(5)]
+    o = [Float(np.zeros(5, np.float32)), Float(np.arange(5, dtype=np.float32) / 100.0)]
+    d = [Float(np.ones(5, np.float32)), Float(np.zeros(5, np.float32))]
+    results = []
+    for method in ("replay", "autodiff"):
+        field = PiecewiseField(sigma, rgb, t)
+        dr.enable_grad(field.params)
+        out = volume_render(field, field.params, o, d, 0.5, 3.0, sampler, (0.2, 0.3, 0.4), method=method)
+        dr.backward(sum(c * g for c, g in zip([*out.rgb, out.depth, out.opacity], cot)))
+        results.append([np.asarray(v) for v in (*out.rgb, out.depth, out.opacity, dr.grad(field.params["sigma"]),
+                                               dr.grad(field.params["rgb"]))])
+    assert results[0][4][1] == 0 and results[0][0][1] == pytest.approx(0.2)      # no samples: the background
+    for a, b in zip(*results):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)

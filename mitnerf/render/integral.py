@@ -24,6 +24,8 @@ per ray per step, accumulating ``C, D, A``; nothing per sample is kept (weights 
 ends after the last sample its sampler placed (:attr:`~.samplers._Sampler.count`; the slots after it are empty),
 and, when rendering without gradients, where its transmittance falls to ``stop`` (:math:`w_{min}`): each later
 sample's weight is at most that, so it would add no colour; depth and opacity then differ by at most ``stop``.
+The rays are marched in an order grouped by their sample count (:func:`.samplers.by_count`), so the lanes of a SIMD
+packet end their loops together; the adjoint replays the same order.
 
 **Adjoint** (radiative backpropagation, as Mitsuba's ``prb`` integrators): with output
 gradients :math:`\bar C, \bar D, \bar A` and optionally :math:`\bar w_i`, define the
@@ -57,7 +59,23 @@ from dataclasses import dataclass
 import drjit as dr
 from drjit.auto.ad import Float, UInt32
 
-from .samplers import per_sample
+from .samplers import by_count, per_sample
+
+
+def in_lanes(values, order) -> list:
+    """Per-ray arrays (or constants) in the march's lane order (``order``: :func:`.samplers.by_count`; None: as
+    they are)."""
+    return list(values) if order is None else [per_sample(Float(v), order) for v in values]
+
+
+def in_rays(values, order) -> list:
+    """Lane-order arrays back in ray order."""
+    if order is None:
+        return list(values)
+    out = [dr.zeros(Float, dr.width(order)) for _ in values]
+    for r, v in zip(out, values):
+        dr.scatter(r, v, order, mode=dr.ReduceMode.Permute)
+    return out
 
 
 @dataclass
@@ -92,10 +110,11 @@ def _keep(T: Float, delta: Float, w_min: float):
     return lambda sigma: T * (1.0 - dr.exp(-sigma * delta)) > w_min
 
 
-def marching(sampler, stop: float):
-    """The loop condition of a ray's march: samples left (:attr:`~.samplers._Sampler.count`), and, with ``stop``
-    > 0, transmittance above ``stop``."""
-    left = (lambda i: i < sampler.n) if sampler.count is None else (lambda i: i < sampler.count)
+def marching(sampler, stop: float, ray: UInt32):
+    """The loop condition of the march of the lanes' rays ``ray``: samples left (:attr:`~.samplers._Sampler.count`),
+    and, with ``stop`` > 0, transmittance above ``stop``."""
+    count = None if sampler.count is None else dr.gather(UInt32, sampler.count, ray)
+    left = (lambda i: i < sampler.n) if count is None else (lambda i: i < count)
     return (lambda i, T, *_: left(i) & (T > stop)) if stop > 0 else (lambda i, *_: left(i))
 
 
@@ -111,14 +130,16 @@ class VolumeIntegral(dr.CustomOp):
              want_weights=False, input_grads=False, w_min=W_MIN, stop=0.0):
         self.args = (params, origins, directions, near, far, source, sampler, input_grads, w_min, stop)
         n, N = dr.width(origins[0]), sampler.n
-        ray = dr.arange(UInt32, n)
+        self.order = order = by_count(sampler, n)
+        ray = dr.arange(UInt32, n) if order is None else order       # lane -> ray
+        o, d = in_lanes(origins, order), in_lanes(directions, order)
         near_r, far_r = per_sample(near, ray), per_sample(far, ray)
         weights = dr.zeros(Float, n * N) if want_weights else None
 
         def body(i, T, C, D):
             t, delta = sampler.interval(ray, i, near_r, far_r)
-            x = [o + t * d for o, d in zip(origins, directions)]
-            sigma, rgb = source(params, x, directions, ray * N + i, _keep(T, delta, w_min))
+            x = [oi + t * di for oi, di in zip(o, d)]
+            sigma, rgb = source(params, x, d, ray * N + i, _keep(T, delta, w_min))
             alpha = 1.0 - dr.exp(-sigma * delta)
             w = T * alpha
             rgb = [dr.select(w > w_min, c, 0.0) for c in rgb]
@@ -127,29 +148,34 @@ class VolumeIntegral(dr.CustomOp):
             return i + 1, T * (1.0 - alpha), [c + w * ci for c, ci in zip(C, rgb)], D + w * t
 
         state = (UInt32(0), dr.full(Float, 1.0, n), [dr.zeros(Float, n) for _ in range(3)], dr.zeros(Float, n))
-        _, T, C, D = dr.while_loop(state, marching(sampler, stop), body, label="volume_integral")
-        self.out = ([c + T * b for c, b in zip(C, background)], D, 1.0 - T, weights)
+        _, T, C, D = dr.while_loop(state, marching(sampler, stop, ray), body, label="volume_integral")
+        C = [c + T * b for c, b in zip(C, in_lanes(background, order))]
+        *C, D, A = in_rays([*C, D, 1.0 - T], order)
+        self.out = (C, D, A, weights)
         return self.out
 
     def backward(self):
         params, origins, directions, near, far, source, sampler, input_grads, w_min, stop = self.args
+        order = self.order
         dC, dD, dA, dW = self.grad_out()
         C, D, A, W = self.out
         n, N = dr.width(origins[0]), sampler.n
-        ray = dr.arange(UInt32, n)
+        ray = dr.arange(UInt32, n) if order is None else order
+        o, d = in_lanes(origins, order), in_lanes(directions, order)
+        (*dC, dD, dA), (*C, D, A) = in_lanes([*dC, dD, dA], order), in_lanes([*C, D, A], order)
         near_r, far_r = per_sample(near, ray), per_sample(far, ray)
         P = {k: dr.detach(v) for k, v in params.items()}    # fresh leaves that collect the adjoint
         dr.enable_grad(P)
         R = _dot3(dC, C) + dD * D + dA * A
         use_dw = W is not None and dW is not None and dr.width(dW) == n * N
         if use_dw:
-            R = R + dr.block_sum(dW * W, N)
+            R = R + per_sample(dr.block_sum(dW * W, N), ray)
 
         def body(i, T, R, go, gd):
             t, delta = sampler.interval(ray, i, near_r, far_r)
             with dr.resume_grad():
-                x = [o + t * d for o, d in zip(origins, directions)]
-                dirs = [Float(d) for d in directions] if input_grads else directions
+                x = [oi + t * di for oi, di in zip(o, d)]
+                dirs = [Float(di) for di in d] if input_grads else d
                 if input_grads:
                     dr.enable_grad(x, dirs)
                 sigma, rgb = source(P, x, dirs, ray * N + i, _keep(T, delta, w_min))
@@ -174,11 +200,11 @@ class VolumeIntegral(dr.CustomOp):
 
         zeros = [dr.zeros(Float, n) for _ in range(2 * len(origins))]
         state = (UInt32(0), dr.full(Float, 1.0, n), R, zeros[:len(origins)], zeros[len(origins):])
-        _, _, _, go, gd = dr.while_loop(state, marching(sampler, stop), body, label="volume_integral_adjoint")
+        _, _, _, go, gd = dr.while_loop(state, marching(sampler, stop, ray), body, label="volume_integral_adjoint")
         self.set_grad_in("params", {k: dr.grad(v) for k, v in P.items()})
         if input_grads:
-            self.set_grad_in("origins", go)
-            self.set_grad_in("directions", gd)
+            self.set_grad_in("origins", in_rays(go, order))
+            self.set_grad_in("directions", in_rays(gd, order))
 
     def forward(self):
         raise NotImplementedError("VolumeIntegral supports reverse mode only; use method='autodiff' "

@@ -25,7 +25,7 @@ from drjit.auto.ad import Float, UInt32
 
 from ..settings import setting
 from ..rng import uniform
-from .samplers import Explicit, per_sample
+from .samplers import Explicit, grouped, per_sample
 from .space import DRJIT, Space, to_s, to_t
 
 
@@ -162,7 +162,8 @@ class OccupiedSampler:
         return UInt32(first), UInt32(dr.select(t_in <= t_out, last, first))
 
     def build(self, origins: list, directions: list, near, far) -> Explicit:
-        """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals and a count."""
+        """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals and a count. The rays
+        are looked up grouped by their count of bins (:func:`~.samplers.grouped`)."""
         n_rays = dr.width(origins[0])
         ray = dr.arange(UInt32, n_rays)
         near_r, far_r = per_sample(Float(near), ray), per_sample(Float(far), ray)
@@ -171,6 +172,9 @@ class OccupiedSampler:
             first, end = dr.zeros(UInt32, n_rays), dr.full(UInt32, self.bins, n_rays)
         else:
             first, end = self._bins(origins, directions, near_r, dt)
+            ray = grouped(end - first, self.bins)       # lane -> ray
+            first, end = dr.gather(UInt32, first, ray), dr.gather(UInt32, end, ray)
+            near_r, far_r, dt = (per_sample(v, ray) for v in (near_r, far_r, dt))
 
         def count_body(k, count):
             occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
@@ -180,7 +184,8 @@ class OccupiedSampler:
                              label="occupancy_count")
         stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
         # unused slots: t = far, delta = 0 (no contribution)
-        t_out = dr.gather(Float, far_r, dr.arange(UInt32, n_rays * self.n) // self.n)
+        t_out = dr.gather(Float, per_sample(Float(far), dr.arange(UInt32, n_rays)),
+                          dr.arange(UInt32, n_rays * self.n) // self.n)
         d_out = dr.zeros(Float, n_rays * self.n)
 
         def place_body(k, rank):
@@ -200,4 +205,6 @@ class OccupiedSampler:
 
         dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, r: k < end, place_body,
                       label="occupancy_place")
-        return Explicit(t_out, self.n, d_out, (K + stride - 1) // stride)
+        count = dr.zeros(UInt32, n_rays)
+        dr.scatter(count, (K + stride - 1) // stride, ray, mode=dr.ReduceMode.Permute)
+        return Explicit(t_out, self.n, d_out, count)

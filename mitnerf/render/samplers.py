@@ -81,9 +81,30 @@ class Explicit(_Sampler):
         return self.t(ray, i, near, far), dr.gather(Float, self.delta_flat, ray * self.n + i)
 
 
+def by_count(sampler, n_rays: int) -> UInt32 | None:
+    """The rays in the order a march takes them, grouped by :attr:`~_Sampler.count`; None where every ray has
+    ``n`` samples. See :func:`grouped`."""
+    return None if sampler.count is None else grouped(dr.minimum(sampler.count, sampler.n), sampler.n)
+
+
+def grouped(key: UInt32, top: int) -> UInt32:
+    """A permutation (lane -> ray) that groups rays by ``key`` in ``[0, top]``, ascending (a counting sort), for
+    loops whose length per ray is ``key``: the lanes of a SIMD packet then end their loops together, where in any
+    order a packet's loop runs on for its longest ray while the others idle. ``[n_rays]``; within a key the order
+    is not fixed, and no result depends on it."""
+    n = dr.width(key)
+    histogram = dr.zeros(UInt32, top + 1)
+    slot = dr.scatter_inc(histogram, key)           # a ray's place among those of its key
+    dr.eval(slot)
+    order = dr.zeros(UInt32, n)
+    place = dr.gather(UInt32, dr.prefix_sum(histogram), key) + slot
+    dr.scatter(order, dr.arange(UInt32, n), place, mode=dr.ReduceMode.Permute)
+    return order
+
+
 def per_sample(value: Float, ray: UInt32) -> Float:
     """Broadcast a per-ray (or scalar) quantity to samples."""
-    return value if dr.width(value) == 1 else dr.gather(Float, value, ray)
+    return value if dr.width(value) <= 1 else dr.gather(Float, value, ray)
 
 
 def count_below(sorted_flat: Float, block: int, base: UInt32, query: Float, strict: bool = True) -> UInt32:
