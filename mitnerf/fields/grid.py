@@ -171,6 +171,8 @@ class LatticeField(Field):
 
 class GridField(LatticeField):
 
+    scattered = True
+
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         shape = (self.cfg.initial_resolution,) * self.dim
         color = np.random.default_rng(seed).normal(0, 0.01, shape + (3 * self.cfg.color_coeffs,)).astype(np.float32)

@@ -23,6 +23,11 @@ def columns(a: np.ndarray) -> list:
     return [Float(np.ascontiguousarray(c, dtype=np.float32)) for c in np.asarray(a).T]
 
 
+CHECK_EVERY = 16
+"""Steps between the checks that every parameter is finite: a non-finite gradient makes its parameter so in Adam's
+step, and a run that fails restores its last good validation's weights, so a check a few steps late loses
+nothing, where a check every step would read every parameter every step."""
+
 STEP_INPUTS = ("origins", "directions", "target", "background", "depth", "hit", "free", "footprint", "solid")
 """What a step reads of its batch (:class:`~mitnerf.data.rays.RaySet`)."""
 
@@ -44,7 +49,7 @@ class DrJitBackend(Backend):
                         params=self.model.init_params(train_cfg.seed))
         occ = model_cfg.render.occupancy
         self.occupancy = OccupancyGrid(occ, dim, bound) if occ.enabled else None
-        self._inputs = None
+        self._inputs, self._reads = None, 0
         """The batch, column after column (``STEP_INPUTS``), in one array written in place every step: a frozen
         step given fresh arrays each time is recorded again and again while earlier steps are in flight."""
         self._frozen = self._new_step()
@@ -63,7 +68,13 @@ class DrJitBackend(Backend):
         use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
         widths = [D, D, 3, 3, 1, 1, 1, 2 * D, 1]                             # of STEP_INPUTS
 
+        local = not all(f.scattered for f in model.fields.values())     # see Field.scattered
+
         def step(opt, inputs, seed, lr, occupancy):
+            with dr.scoped_set_flag(dr.JitFlag.ScatterReduceLocal, local):
+                return traced(opt, inputs, seed, lr, occupancy)
+
+        def traced(opt, inputs, seed, lr, occupancy):
             set_learning_rate(opt, lr)
             rows, data = dr.arange(UInt32, B), {}
             for k, start, width in zip(STEP_INPUTS, np.cumsum([0, *widths]).tolist(), widths):  # the batch's columns
@@ -89,10 +100,8 @@ class DrJitBackend(Backend):
             loss = training_loss(cfg, n_final, losses, outs, data["target"], depth, data["hit"][0],
                                  data["free"][0], behind, model.regularizer(params, seed))
             dr.backward(loss)
-            bad = [dr.count(~dr.isfinite(dr.grad(params[k]).array if dr.is_tensor_v(params[k])
-                                         else dr.grad(params[k]))) for k in opt.keys()]
             opt.step()
-            return loss, bad
+            return loss
 
         return freeze(step) if cfg.freeze and all(f.freezable for f in model.fields.values()) else step
 
@@ -113,13 +122,14 @@ class DrJitBackend(Backend):
                             occ.lookup if occ is not None else None)
 
     def read(self, handle) -> tuple[float, str | None]:
-        loss, bad = handle
-        value = float(loss[0])
-        bad = next((f"the gradient of {k}" for k, n in zip(self.opt.keys(), bad) if int(n[0])), None)
-        if bad is None and np.isfinite(value):      # a parameter can overflow with finite gradients
-            bad = next((f"parameter {k}" for k, v in self.params.items()
-                        if not dr.all(dr.isfinite(v.array if dr.is_tensor_v(v) else v))), None)
-        return value, bad
+        """The loss of a step, and the first parameter that is not finite, looked for in every
+        :data:`CHECK_EVERY`-th read (a pass over all of them) and wherever the loss is not finite."""
+        value = float(handle[0])
+        self._reads += 1
+        if np.isfinite(value) and self._reads % CHECK_EVERY:
+            return value, None
+        return value, next((f"parameter {k}" for k, v in self.params.items()
+                            if not dr.all(dr.isfinite(v.array if dr.is_tensor_v(v) else v))), None)
 
     def _density_fn(self):
         params = self.detached()
