@@ -70,7 +70,8 @@ def rows_table(key: str, entry: dict) -> str:
 
 
 def lego_table(results: dict) -> str:
-    """``lego/<budget>`` (and ``lego/nerfacto-<budget>``) beside the published figures (``benchmarks/lego.py``)."""
+    """``lego/<budget>`` (and ``lego/nerfacto/<budget>``, ``benchmarks/nerfacto.py``) beside the published figures
+    (``benchmarks/lego.py``)."""
     if __package__:                       # imported as benchmarks.report (the tests)
         from .lego import ANCHORS
     else:                                 # run as python benchmarks/report.py

@@ -103,3 +103,49 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     table = report.lego_table(load_results())
     assert "| `lego/600` (grid-3d) | 400 x 400 | 30.50 | 0.950 | 600 s, 4000 steps |" in table
     assert "| NeRF (published) | 800 x 800 | 32.54 |" in table and "on 200 views of 400 x 400 over" in entry["summary"]
+
+
+def test_nerfacto_scores_its_renders_with_mitnerfs_metrics_and_records_them(results, monkeypatch, tmp_path):
+    """The nerfacto process faked: grey renders (0.5) of 2 of 5 white test views, so the MSE is 0.25 and the PSNR
+    -10 log10(0.25) = 6.02 dB, and the SSIM is its luminance term alone, (2 * 0.5 * 1 + C1) / (0.5^2 + 1 + C1) = 0.80
+    (both images flat: the contrast and structure terms are C2 / C2 = 1); the views are the ends of the split
+    (test_views(5, 2) = [0, 4])."""
+    import json
+
+    import numpy as np
+
+    import mitnerf.data.formats
+    from benchmarks import nerfacto
+
+    (tmp_path / "transforms_test.json").write_text(json.dumps({"frames": [{}] * 5}))
+    split = SimpleNamespace(target=lambda bg, views: np.ones((len(views), 4, 6, 3), np.float32) * np.float32(bg))
+    monkeypatch.setattr(mitnerf.data.formats, "load_dataset", lambda path: {"test": split})
+    monkeypatch.setattr(nerfacto, "missing", lambda python, data: None)
+    monkeypatch.setattr(nerfacto, "ROOT", tmp_path)
+    asked = {}
+
+    def fake_run(cmd):
+        asked["views"] = cmd[cmd.index("--views") + 1]
+        out = Path(cmd[cmd.index("--out") + 1])
+        out.mkdir(parents=True)
+        np.save(out / "renders.npy", np.full((2, 4, 6, 3), 0.5, np.float32))
+        (out / "run.json").write_text(json.dumps({"steps": 7, "train_s": 60.5, "render_s": 3.0, "torch": "t",
+                                                  "nerfstudio": "n"}))
+        return [], 70.0
+
+    monkeypatch.setattr(nerfacto, "run", fake_run)
+    assert nerfacto.main(["--time-budget", "60", "--test-views", "2", "--data", str(tmp_path)]) == 0
+    entry = load_results()["lego/nerfacto/60"]
+    v = entry["values"]
+    assert asked["views"] == "0,4"
+    assert (round(v["psnr"], 2), round(v["ssim"], 2)) == (6.02, 0.80)
+    assert (v["steps"], v["views"], v["size"], entry["machine"]["threads"]) == (7, 2, "6 x 4", 2)
+    assert "implementation torch" in entry["settings"] and entry["command"].startswith("python benchmarks/nerfacto")
+
+
+def test_nerfacto_skips_with_one_line_without_its_interpreter(results, tmp_path, capsys):
+    from benchmarks import nerfacto
+
+    (tmp_path / "transforms_test.json").write_text("{}")
+    assert nerfacto.main(["--python", str(tmp_path / "none"), "--data", str(tmp_path)]) == 0
+    assert capsys.readouterr().out.count("\n") == 1 and not results.exists()
