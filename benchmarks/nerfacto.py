@@ -7,7 +7,8 @@ not depend on nerfstudio), through ``benchmarks/_nerfacto_driver.py``, whose doc
 ``--time-budget`` seconds with ``--threads`` threads, then renders ``--test-views`` test views evenly spread over
 the 200 (nerfacto renders a 400 x 400 view in minutes on this CPU, so not all 200), whose PSNR (over all their
 pixels) and mean SSIM against the RGBA test images composited over white, as mitnerf's Blender reader reads them,
-are recorded in ``results.json`` as ``lego/nerfacto/<budget>``. Where the interpreter, nerfstudio or the data is
+are recorded in ``results.json`` as ``lego/nerfacto/<budget>``, with those of mitnerf's own 600 s fit on the same
+views (``ours``) where ``benchmarks/lego.py --parts 600`` has left it in ``out/lego/600``. Where the interpreter, nerfstudio or the data is
 absent, one line says so and nothing runs. The interpreter is made so (torch's CPU build, nerfstudio without its
 GPU, viewer and export dependencies):
 
@@ -38,6 +39,8 @@ else:                                  # run as python benchmarks/nerfacto.py
     from _cli import ROOT, run
     from lego import DATA
 
+OURS = "600"
+"""The budget of mitnerf's lego run scored beside nerfacto on the same views (``benchmarks/lego.py --parts 600``)."""
 PYTHON = Path("/work/wt/nsvenv/bin/python")
 """The interpreter holding nerfstudio (made as the module docstring says)."""
 DRIVER = Path(__file__).with_name("_nerfacto_driver.py")
@@ -75,6 +78,21 @@ def score(data: Path, out: Path, views) -> dict:
     return {**values, "score_s": time.perf_counter() - t0, "size": f"{target.shape[2]} x {target.shape[1]}"}
 
 
+def ours(data: Path, views: int) -> dict | None:
+    """PSNR and SSIM of mitnerf's own lego fit (``benchmarks/lego.py``'s ``out/lego/<budget>``, when it is there) on
+    the same test views, or None."""
+    run_dir = ROOT / "out" / "lego" / OURS
+    if not (run_dir / "manifest.json").is_file():
+        return None
+    from mitnerf.data.formats import load_dataset
+    from mitnerf.train.checkpoint import load_checkpoint
+    from mitnerf.train.evaluate import evaluate
+
+    run, _ = load_checkpoint(run_dir)
+    rec = evaluate(run.backend, load_dataset(data), "test", geometry_metrics=False, views=views)
+    return {"psnr": rec.psnr, "ssim": rec.ssim, "run": f"out/lego/{OURS}"}
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--time-budget", type=int, default=600, help="seconds of training")
@@ -103,6 +121,10 @@ def main(argv=None) -> int:
     summary = (f"nerfacto: test PSNR {v['psnr']:.2f} dB, SSIM {v['ssim']:.3f} on {len(views)} of {n} views of "
                f"{v['size']} over white; {v['steps']} steps in {v['train_s']:.0f} s, threads {args.threads}; "
                f"evaluation {v['eval_s']:.0f} s")
+    mine = ours(args.data, args.test_views)
+    if mine is not None:
+        v["ours"] = mine
+        summary += f"; mitnerf ({mine['run']}) on the same views {mine['psnr']:.2f} dB, SSIM {mine['ssim']:.3f}"
     print(f"lego/nerfacto/{args.time_budget}: {summary}")
     command = " ".join(["python benchmarks/nerfacto.py", *(argv if argv is not None else sys.argv[1:])]).strip()
     record_result(f"lego/nerfacto/{args.time_budget}", v, summary, command, recipe="nerfacto", threads=args.threads,

@@ -101,8 +101,8 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     from benchmarks import report
 
     table = report.lego_table(load_results())
-    assert "| `lego/600` (grid-3d) | 400 x 400 | 30.50 | 0.950 | 600 s, 4000 steps |" in table
-    assert "| NeRF (published) | 800 x 800 | 32.54 |" in table and "on 200 views of 400 x 400 over" in entry["summary"]
+    assert "| `lego/600` (grid-3d) | 400 x 400 | 200 | 30.50 | 0.950 | 600 s, 4000 steps |" in table
+    assert "| NeRF (published) | 800 x 800 | 200 | 32.54 |" in table and "on 200 views of 400 x 400 over" in entry["summary"]
 
 
 def test_nerfacto_scores_its_renders_with_mitnerfs_metrics_and_records_them(results, monkeypatch, tmp_path):
@@ -141,6 +141,17 @@ def test_nerfacto_scores_its_renders_with_mitnerfs_metrics_and_records_them(resu
     assert (round(v["psnr"], 2), round(v["ssim"], 2)) == (6.02, 0.80)
     assert (v["steps"], v["views"], v["size"], entry["machine"]["threads"]) == (7, 2, "6 x 4", 2)
     assert "implementation torch" in entry["settings"] and entry["command"].startswith("python benchmarks/nerfacto")
+    assert "ours" not in v                                  # no mitnerf lego run under ROOT/out/lego/600
+    monkeypatch.setattr(nerfacto, "ours", lambda data, views: {"psnr": 25.0, "ssim": 0.9, "run": "out/lego/600"})
+    import shutil
+
+    shutil.rmtree(tmp_path / "out" / "lego" / "nerfacto-60")
+    assert nerfacto.main(["--time-budget", "60", "--test-views", "2", "--data", str(tmp_path)]) == 0
+    from benchmarks import report
+
+    table = report.lego_table(load_results())
+    assert "| `lego/nerfacto/60` (nerfacto) | 6 x 4 | 2 | 6.02 | 0.800 | 60 s, 7 steps |" in table
+    assert "| `out/lego/600` on the same views | 6 x 4 | 2 | 25.00 | 0.900 | | |" in table
 
 
 def test_nerfacto_skips_with_one_line_without_its_interpreter(results, tmp_path, capsys):
