@@ -188,7 +188,7 @@ def test_rays_marched_grouped_by_count_give_each_ray_its_own_result():
     delta = np.array([[0.5, 0.5, 1], [0, 0, 0], [1, 1, 0], [0.2, 1.1, 0.5], [1, 0, 0]], np.float32)
     sampler = Explicit(Float(t.ravel()), 3, Float(delta.ravel()), UInt32(count))
     from mitnerf.render.samplers import by_count
-    order = np.asarray(by_count(sampler, 5))
+    order = np.asarray(by_count(sampler))
     assert sorted(order) == [0, 1, 2, 3, 4] and count[order].tolist() == [0, 1, 2, 3, 3]
     rng = np.random.default_rng(3)
     sigma, rgb = rng.uniform(0, 3, (5, 3)), rng.uniform(0, 1, (5, 3, 3))

@@ -130,7 +130,7 @@ class VolumeIntegral(dr.CustomOp):
              want_weights=False, input_grads=False, w_min=W_MIN, stop=0.0):
         self.args = (params, origins, directions, near, far, source, sampler, input_grads, w_min, stop)
         n, N = dr.width(origins[0]), sampler.n
-        self.order = order = by_count(sampler, n)
+        self.order = order = by_count(sampler)
         ray = dr.arange(UInt32, n) if order is None else order       # lane -> ray
         o, d = in_lanes(origins, order), in_lanes(directions, order)
         near_r, far_r = per_sample(near, ray), per_sample(far, ray)

@@ -81,18 +81,18 @@ class Explicit(_Sampler):
         return self.t(ray, i, near, far), dr.gather(Float, self.delta_flat, ray * self.n + i)
 
 
-def by_count(sampler, n_rays: int) -> UInt32 | None:
+def by_count(sampler) -> UInt32 | None:
     """The rays in the order a march takes them, grouped by :attr:`~_Sampler.count`; None where every ray has
     ``n`` samples. See :func:`grouped`."""
-    return None if sampler.count is None else grouped(dr.minimum(sampler.count, sampler.n), sampler.n)
+    return None if sampler.count is None else grouped(sampler.count, sampler.n)
 
 
 def grouped(key: UInt32, top: int) -> UInt32:
-    """A permutation (lane -> ray) that groups rays by ``key`` in ``[0, top]``, ascending (a counting sort), for
-    loops whose length per ray is ``key``: the lanes of a SIMD packet then end their loops together, where in any
-    order a packet's loop runs on for its longest ray while the others idle. ``[n_rays]``; within a key the order
-    is not fixed, and no result depends on it."""
-    n = dr.width(key)
+    """A permutation (lane -> ray) that groups rays by ``key`` in ``[0, top]`` (a larger key counts as ``top``),
+    ascending (a counting sort), for loops whose length per ray is ``key``: the lanes of a SIMD packet then end
+    their loops together, where in any order a packet's loop runs on for its longest ray while the others idle.
+    ``[n_rays]``; within a key the order is not fixed, and no result depends on it."""
+    n, key = dr.width(key), dr.minimum(key, top)
     histogram = dr.zeros(UInt32, top + 1)
     slot = dr.scatter_inc(histogram, key)           # a ray's place among those of its key
     dr.eval(slot)
