@@ -7,8 +7,8 @@ test views), fitted by the plain command line as a user runs it, each part in a 
 every other setting the defaults (the white background, all 200 test views). Each part records in
 ``results.json`` (``lego/600``, ``lego/3600``) the test PSNR and SSIM over the 200 views, the steps, the
 evaluation's time and the process's peak memory, read from the run's ``metrics.json``, with the command and the
-machine. ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`). Where
-the data is absent, one line says so and nothing runs.
+machine. ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and
+the peer on this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
     python benchmarks/lego.py [--parts 600 3600] [--data ../shared/data/nerf_synthetic/lego_400]
 """
