@@ -8,9 +8,9 @@ not depend on nerfstudio), through ``benchmarks/_nerfacto_driver.py``, whose doc
 the 200 (nerfacto renders a 400 x 400 view in minutes on this CPU, so not all 200), whose PSNR (over all their
 pixels) and mean SSIM against the RGBA test images composited over white, as mitnerf's Blender reader reads them,
 are recorded in ``results.json`` as ``lego/nerfacto/<budget>``, with those of mitnerf's own 600 s fit on the same
-views (``ours``) where ``benchmarks/lego.py --parts 600`` has left it in ``out/lego/600``. Where the interpreter, nerfstudio or the data is
-absent, one line says so and nothing runs. The interpreter is made so (torch's CPU build, nerfstudio without its
-GPU, viewer and export dependencies):
+views (``ours``) where ``benchmarks/lego.py --parts 600`` has left it in ``out/lego/600``. Where the interpreter,
+nerfstudio or the data is absent, one line says so and nothing runs. The interpreter is made so (torch's CPU
+build, nerfstudio without its GPU, viewer and export dependencies):
 
     python3.11 -m venv NSVENV
     NSVENV/bin/pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu

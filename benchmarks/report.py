@@ -83,7 +83,8 @@ def lego_table(results: dict) -> str:
     lines = ["Lego: ours at the size each row gives (trained and tested at it) on the machine named, the published "
              "figures at 800 x 800 on a GPU, on the 200 test views; all over white. The peer (nerfacto) renders "
              "slowly on a CPU and is scored on fewer views, with our 600 s fit on the same views beside it.\n",
-             "| run | views | test views | test PSNR [dB] | SSIM | training | hardware |", "|---|---|---|---|---|---|---|"]
+             "| run | views | test views | test PSNR [dB] | SSIM | training | hardware |",
+             "|---|---|---|---|---|---|---|"]
     for key, e in ours.items():
         v = e["values"]
         lines.append(f"| `{key}` ({v.get('recipe', '')}) | {v.get('size', '?')} | {v.get('views', 200)} | "
