@@ -93,8 +93,8 @@ def test_the_sampler_looks_only_inside_the_box_of_occupied_cells():
     o = [Float([-1.0, -1.0]), Float([-0.25, 0.75])]
     d = [Float([1.0, 1.0]), Float([0.0, 0.0])]
     whole = (grid.occupied, Float([-1.0, -1.0, 1.0, 1.0]))           # a box around the whole grid
-    got, every = (OccupiedSampler(*lookup, 8, 16, 1.0, 4, UInt32(0), jitter=False).build(o, d, 0.0, 2.0)
-                  for lookup in (grid.lookup, whole))
+    got, every = (OccupiedSampler(*lookup, 8, 16, 1.0, 4, UInt32(0), jitter=False, grouped=g).build(o, d, 0.0, 2.0)
+                  for lookup, g in ((grid.lookup, True), (whole, False)))     # the rays grouped by their bins, or not
     np.testing.assert_array_equal(np.asarray(got.count), [4, 0])
     np.testing.assert_array_equal(np.asarray(got.t_flat)[:4], 0.125 * (np.arange(8, 12) + 0.5))
     for a, b in ((got.t_flat, every.t_flat), (got.delta_flat, every.delta_flat), (got.count, every.count)):

@@ -129,6 +129,9 @@ class OccupiedSampler:
     seed: UInt32
     jitter: bool = True
     space: Space = Space()
+    grouped: bool = False
+    """Look the rays up grouped by their count of bins (:func:`~.samplers.grouped`): for a training batch, whose rays
+    come in no order; a view's rays come in pixel order, which groups them already and keeps neighbours together."""
 
     def _at(self, k: Float, near: Float, far: Float) -> Float:
         """Distance of the point ``k`` (fractional) bins along ``[near, far]``."""
@@ -162,8 +165,7 @@ class OccupiedSampler:
         return UInt32(first), UInt32(dr.select(t_in <= t_out, last, first))
 
     def build(self, origins: list, directions: list, near, far) -> Explicit:
-        """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals and a count. The rays
-        are looked up grouped by their count of bins (:func:`~.samplers.grouped`)."""
+        """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals and a count."""
         n_rays = dr.width(origins[0])
         ray = dr.arange(UInt32, n_rays)
         near_r, far_r = per_sample(Float(near), ray), per_sample(Float(far), ray)
@@ -172,6 +174,7 @@ class OccupiedSampler:
             first, end = dr.zeros(UInt32, n_rays), dr.full(UInt32, self.bins, n_rays)
         else:
             first, end = self._bins(origins, directions, near_r, dt)
+        if self.grouped and not self.space.warped:
             ray = grouped(end - first, self.bins)       # lane -> ray
             first, end = dr.gather(UInt32, first, ray), dr.gather(UInt32, end, ray)
             near_r, far_r, dt = (per_sample(v, ray) for v in (near_r, far_r, dt))

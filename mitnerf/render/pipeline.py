@@ -162,8 +162,8 @@ class Model(FieldSet):
             sampler = Stratified(cfg.n_coarse, seed, jitter=training, knee=space.knee)
         else:
             sampler = OccupiedSampler(*occupancy, cfg.n_coarse, cfg.occupancy.march_bins,
-                                      self.fields["coarse"].bound, cfg.occupancy.resolution, seed,
-                                      jitter=training, space=space).build(origins, directions, near, far)
+                                      self.fields["coarse"].bound, cfg.occupancy.resolution, seed, jitter=training,
+                                      space=space, grouped=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
                   stop=0.0 if training else cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
