@@ -64,32 +64,30 @@ def missing(python: Path, data: Path) -> str | None:
     return None
 
 
-def score(data: Path, out: Path, views) -> dict:
+def score(dataset, out: Path, views) -> dict:
     """PSNR and SSIM of ``out/renders.npy`` against ``views`` of the test split over white, and their seconds."""
     import numpy as np
 
-    from mitnerf.data.formats import load_dataset
     from mitnerf.train.metrics import psnr, ssim
 
-    target = load_dataset(data)["test"].target((1.0, 1.0, 1.0), views=np.asarray(views))
+    target = dataset["test"].target((1.0, 1.0, 1.0), views=np.asarray(views))
     rgb = np.load(out / "renders.npy")
     t0 = time.perf_counter()
     values = {"psnr": psnr(rgb, target), "ssim": ssim(rgb, target)}
     return {**values, "score_s": time.perf_counter() - t0, "size": f"{target.shape[2]} x {target.shape[1]}"}
 
 
-def ours(data: Path, views: int) -> dict | None:
+def ours(dataset, views: int) -> dict | None:
     """PSNR and SSIM of mitnerf's own lego fit (``benchmarks/lego.py``'s ``out/lego/<budget>``, when it is there) on
     the same test views, or None."""
     run_dir = ROOT / "out" / "lego" / OURS
     if not (run_dir / "manifest.json").is_file():
         return None
-    from mitnerf.data.formats import load_dataset
     from mitnerf.train.checkpoint import load_checkpoint
     from mitnerf.train.evaluate import evaluate
 
     run, _ = load_checkpoint(run_dir)
-    rec = evaluate(run.backend, load_dataset(data), "test", geometry_metrics=False, views=views)
+    rec = evaluate(run.backend, dataset, "test", geometry_metrics=False, views=views)
     return {"psnr": rec.psnr, "ssim": rec.ssim, "run": f"out/lego/{OURS}"}
 
 
@@ -115,13 +113,16 @@ def main(argv=None) -> int:
            "--views", ",".join(map(str, views)), "--out", out]
     _, wall = run(cmd)
     ran = json.loads((out / "run.json").read_text())
-    s = score(args.data, out, views)
+    from mitnerf.data.formats import load_dataset
+
+    dataset = load_dataset(args.data)                  # read once: the targets, and our fit's evaluation
+    s = score(dataset, out, views)
     v = {"psnr": s["psnr"], "ssim": s["ssim"], "steps": ran["steps"], "train_s": ran["train_s"], "views": len(views),
          "size": s["size"], "eval_s": ran["render_s"] + s["score_s"], "recipe": "nerfacto", "wall_s": wall}
     summary = (f"nerfacto: test PSNR {v['psnr']:.2f} dB, SSIM {v['ssim']:.3f} on {len(views)} of {n} views of "
                f"{v['size']} over white; {v['steps']} steps in {v['train_s']:.0f} s, threads {args.threads}; "
                f"evaluation {v['eval_s']:.0f} s")
-    mine = ours(args.data, args.test_views)
+    mine = ours(dataset, args.test_views)
     if mine is not None:
         v["ours"] = mine
         summary += f"; mitnerf ({mine['run']}) on the same views {mine['psnr']:.2f} dB, SSIM {mine['ssim']:.3f}"

@@ -49,9 +49,11 @@ class DrJitBackend(Backend):
                         params=self.model.init_params(train_cfg.seed))
         occ = model_cfg.render.occupancy
         self.occupancy = OccupancyGrid(occ, dim, bound) if occ.enabled else None
-        self._inputs, self._reads = None, 0
+        self._inputs = None
         """The batch, column after column (``STEP_INPUTS``), in one array written in place every step: a frozen
         step given fresh arrays each time is recorded again and again while earlier steps are in flight."""
+        self._reads = 0
+        """Steps read so far (:meth:`read` checks the parameters every :data:`CHECK_EVERY`-th)."""
         self._frozen = self._new_step()
 
     @property
