@@ -171,7 +171,12 @@ def test_a_foreign_scene_is_bounded_by_its_visual_hull(vase_small, tmp_path):
         o, d = vase_small[name].cameras.rays()
         hit = np.isfinite(vase_small[name].depth)
         surface.append((o + vase_small[name].depth[..., None] * d)[hit])
-    assert 1.1 * np.abs(np.concatenate(surface)).max() <= ds.bound < 0.8 * guess
+    surface = np.concatenate(surface)
+    assert 1.1 * np.abs(surface).max() <= ds.bound < 0.8 * guess
+    lo, hi = np.array(ds.hull_box[:3]), np.array(ds.hull_box[3:])         # the box holds every surface point
+    assert (surface >= lo).all() and (surface <= hi).all() and np.abs(ds.hull_box).max() * 1.1 == ds.bound
+    sized = get_recipe("grid-3d").sized(ds).model.field_args             # the grid spans that box
+    assert sized["box"] == ds.hull_box and sized["resolution"] >= sized["initial_resolution"]
 
 
 def views_at(focal: float, n: int = 3) -> Dataset:
@@ -203,6 +208,37 @@ def test_a_size_set_on_the_recipe_stays():
     args = recipe.model.field_args
     assert (args["resolution"], args["initial_resolution"]) == (65, 17)        # 65 = 16 * 4 + 1: from 17
     assert recipe.model.render.occupancy.march_bins == 117                     # ceil(4 * 64 / 2.2)
+
+
+def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():
+    """A box of 1 x 2 x 0.5 (shares 0.5, 1, 0.25: an eighth of its longest side's cube) under the cap of 161^3 vertices:
+    its fullest axis gets 160 / 0.5 + 1 = 321 (the views would give 2 / (4 / 555.5) * 1.5 + 1 = 418), so 161 x 321 x
+    81 vertices; one bin per spacing (2 / 320) over [2, 6]: 640; a cell per two spacings: 176, at most 128."""
+    ds = views_at(555.5)
+    ds.hull_box = (-0.5, -1.0, -0.25, 0.5, 1.0, 0.25)
+    recipe = get_recipe("grid-3d").sized(ds)
+    args, occ = recipe.model.field_args, recipe.model.render.occupancy
+    assert (args["box"], args["resolution"], args["initial_resolution"]) == (ds.hull_box, 321, 81)
+    assert (occ.march_bins, occ.resolution) == (640, 128)
+    from mitnerf.fields.grid import GridConfig
+
+    assert GridConfig(dim=3, **args).lattice(321) == [161, 321, 81]
+
+
+def test_a_forward_facing_grid_is_finer_across_the_views_than_along_their_depth():
+    """NDC spans the views' width and height: views of 400 x 300 give cells (1, 0.75, 0.25) (a quarter along the
+    depth); 161^3 vertices allow 160 / (0.1875)^(1/3) + 1 = 280.6 along x (the views would give 401): 70 * 4 + 1 =
+    281, so 281 x 211 x 71 vertices, from 71 x 53 x 19."""
+    from mitnerf.fields.grid import GridConfig
+
+    poses = np.stack([np.eye(4)] * 3)
+    views = np.zeros((3, 300, 400, 3), np.float32)
+    split = Split(Cameras(poses, 500.0, 300, 400), views, np.ones(views.shape[:3], np.float32))
+    args = get_recipe("grid-forward").sized(Dataset({"train": split, "test": split}, 2.0, 6.0, {})).model.field_args
+    assert (args["cells"], args["box"], args["resolution"], args["initial_resolution"]) == ((1.0, 0.75, 0.25), None,
+                                                                                            281, 71)
+    cfg = GridConfig(dim=3, **args)
+    assert cfg.lattice(281) == [281, 211, 71] and cfg.lattice(71) == [71, 53, 19]
 
 
 def test_a_recipe_is_sized_for_cameras_with_a_lens():

@@ -30,14 +30,17 @@ def test_a_sampled_step_takes_consecutive_distinct_vertices():
     np.testing.assert_array_equal(np.asarray(tv_vertices(UInt32(3), 9, 7)), np.arange(7))     # more than there are
 
 
-@pytest.mark.parametrize("dim, samples", [(2, 0), (2, 40), (3, 100)])
-def test_total_variation_twin_agrees(dim, samples):
+BOX = dict(box=(-1.0, -0.5, -1.5, 1.0, 0.5, 0.5), cells=(1.0, 0.5, 0.75))     # 9 x 5 x 7 vertices
+
+
+@pytest.mark.parametrize("dim, samples, box", [(2, 0, {}), (2, 40, {}), (3, 100, {}), (3, 60, BOX)])
+def test_total_variation_twin_agrees(dim, samples, box):
     # the same random grids in both engines, the same step seed: equal value and equal gradients
     torch = pytest.importorskip("torch")
     from mitnerf.reference.fields.grid import GridField as TwinGrid
 
-    cfg = GridConfig(dim=dim, resolution=9 if dim == 2 else 5, view_dependent=True, tv_weight=1e-2,
-                     tv_color_weight=0.3, tv_samples=samples)
+    cfg = GridConfig(dim=dim, resolution=9 if dim == 2 or box else 5, view_dependent=True, tv_weight=1e-2,
+                     tv_color_weight=0.3, tv_samples=samples, **box)
     f, twin = GridField(cfg), TwinGrid(cfg)
     rng = np.random.default_rng(1)
     arrays = {k: rng.normal(size=v.shape).astype(np.float32) for k, v in f.init_numpy(0).items()}

@@ -207,20 +207,32 @@ class Dataset:
     @cached_property
     def bound(self) -> float:
         """Half-extent that normalises positions: 1.1 x the object's radius, from the outline or the unit sphere
-        of datasets rendered here (2D / 3D), else (foreign data) the box around the training views' visual hull
-        (:func:`hull_radius`) where their alpha tells empty pixels, else the median camera distance minus ``near``."""
+        of datasets rendered here (2D / 3D), else (foreign data) the largest coordinate of :attr:`hull_box` where the
+        training views' alpha tells empty pixels, else the median camera distance minus ``near``."""
         meta = self.meta
         if "polygon" in meta:
             r = float(np.linalg.norm(np.asarray(meta["polygon"]), axis=1).max())
         elif meta.get("kind") == "3d":
             r = 1.0
         else:
-            cams = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in self.splits.values()])
-            r = max(float(np.median(cams)) - self.near, 0.5)
-            train = self.splits.get("train")
-            if train is not None and train.has_alpha:
-                r = hull_radius(train, 1.1 * r)
+            r = self.camera_radius
+            if self.hull_box is not None:
+                r = float(np.abs(np.asarray(self.hull_box)).max())
         return 1.1 * r
+
+    @property
+    def camera_radius(self) -> float:
+        cams = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in self.splits.values()])
+        return max(float(np.median(cams)) - self.near, 0.5)
+
+    @cached_property
+    def hull_box(self) -> tuple | None:
+        """Foreign data whose training views have alpha: the box around those views' visual hull (:func:`hull_box`)
+        within ``1.1 x`` the camera radius, as ``(lo_x, lo_y, lo_z, hi_x, hi_y, hi_z)``; None otherwise."""
+        train = self.splits.get("train")
+        if "polygon" in self.meta or self.meta.get("kind") == "3d" or train is None or not train.has_alpha:
+            return None
+        return hull_box(train, 1.1 * self.camera_radius)
 
     @property
     def background(self) -> tuple[float, float, float]:
@@ -242,31 +254,35 @@ def box_downscale(a: np.ndarray, rows: int, cols: int) -> np.ndarray:
     h, w = H // rows, W // cols
     return a[:, :h * rows, :w * cols].reshape(n, h, rows, w, cols, *a.shape[3:]).mean(axis=(2, 4)).astype(a.dtype)
 HULL_POINTS = 64
-"""Points per axis of the lattice whose carving gives a dataset's visual hull (:func:`hull_radius`)."""
+"""Points per axis of the lattice whose carving gives a dataset's visual hull (:func:`hull_box`)."""
 HULL_VIEWS = 24
 """Training views, evenly spaced, that carve it."""
 
 
-def hull_radius(split: Split, r: float) -> float:
-    """The largest coordinate (in absolute value) of a point of ``[-r, r]^D`` that no view of ``split`` (at most
-    :data:`HULL_VIEWS` of them) knows to be empty: none sees it in a pixel whose neighbourhood has alpha 0
-    (:func:`free_distance`), and none whose border is all empty (the object inside its frame) leaves it out of
-    frame. The box around the views' visual hull, on a lattice of :data:`HULL_POINTS` per axis, one lattice step
-    wider; ``r`` when nothing is left (alpha that contradicts the poses)."""
+def hull_box(split: Split, r: float) -> tuple:
+    """The box around the points of ``[-r, r]^D`` that no view of ``split`` (at most :data:`HULL_VIEWS` of them)
+    knows to be empty: none sees them in a pixel whose neighbourhood has alpha 0 (:func:`free_distance`), and none
+    whose border is all empty (the object inside its frame) leaves them out of frame. Found on a lattice of
+    :data:`HULL_POINTS` per axis and widened by one lattice step (within ``[-r, r]``): ``(lo..., hi...)``; the whole
+    cube when nothing is left (alpha that contradicts the poses)."""
     views = np.unique(np.linspace(0, len(split) - 1, min(len(split), HULL_VIEWS)).round().astype(int))
     sub = split.subset(views)
+    D = sub.cameras.dim
     empty = np.isinf(free_distance(None, None, sub.alpha))
     framed = empty[:, [0, -1]].all(axis=(1, 2)) & empty[:, :, [0, -1]].all(axis=(1, 2))     # [n]
     axis = np.linspace(-r, r, HULL_POINTS)
-    pts = np.stack(np.meshgrid(*[axis] * sub.cameras.dim, indexing="ij"), -1).reshape(-1, sub.cameras.dim)
-    top = -1.0
+    pts = np.stack(np.meshgrid(*[axis] * D, indexing="ij"), -1).reshape(-1, D)
+    lo, hi = np.full(D, np.inf), np.full(D, -np.inf)
     for s in range(0, len(pts), 1 << 15):
         p = pts[s:s + (1 << 15)]
         row, col, inside = pixel_of(sub.cameras, p)                             # [n, m]
         out = (inside & empty[np.arange(len(views))[:, None], row, col] | ~inside & framed[:, None]).any(0)
         if not out.all():
-            top = max(top, float(np.abs(p[~out]).max()))
-    return min(top + 2 * r / (HULL_POINTS - 1), r) if top >= 0 else r
+            lo, hi = np.minimum(lo, p[~out].min(0)), np.maximum(hi, p[~out].max(0))
+    if not np.isfinite(lo).all():
+        return (-r,) * D + (r,) * D
+    step = 2 * r / (HULL_POINTS - 1)
+    return tuple(round(float(v), 4) for v in np.concatenate([np.clip(lo - step, -r, r), np.clip(hi + step, -r, r)]))
 
 
 def bounds_from_cameras(cams: list[Cameras], radius: float, margin: float = 0.1) -> tuple[float, float]:

@@ -1,9 +1,12 @@
 """Dense grid field: a density image (2D) or voxel grid (3D) plus colour, interpolated.
 
-Values live on ``R^D`` vertices spanning ``[-bound, bound]^D`` (vertex ``k`` at
-``-bound + 2 bound k / (R - 1)``). A query interpolates raw values (bi/trilinear) and
-*then* applies the activations, so a surface can be sharper than a cell, as in
-Plenoxels and DVGO. Outside the bound the density is 0. Every operation is a gather, so
+Values live on a lattice of vertices over a box: by default ``R^D`` vertices spanning ``[-bound, bound]^D``
+(vertex ``k`` at ``-bound + 2 bound k / (R - 1)``); with ``box`` and ``cells``, ``n_a`` vertices from ``lo_a`` to
+``hi_a`` along each axis, ``R`` on the fullest. Sized from the data, the lattice spans the box around the object
+(the views' visual hull: the same vertices in less volume, so finer cells for the same memory), or, in a
+forward-facing capture's NDC, is finer across the views than along their depth. A query interpolates raw values
+(bi/trilinear) and *then* applies the activations, so a surface can be sharper than a cell, as in Plenoxels and
+DVGO. Outside the box the density is 0. Every operation is a gather, so
 the field is traceable (it runs inside the fused march); where the integral does not use a sample's colour
 (``keep``), only the density is read (one channel per corner instead of 1 + 3 x the colour's coefficients), so
 empty space and the inside of a surface cost that much less in the primal and the adjoint
@@ -19,7 +22,7 @@ import drjit as dr
 import numpy as np
 from drjit.auto.ad import ArrayXf, Float, UInt32
 
-from ..errors import ConfigError
+from ..errors import CheckpointError, ConfigError
 from ..rng import hash_u32
 from ..settings import setting
 from .base import Field, FieldConfig, cell_corners, density_activation, sigmoid
@@ -75,9 +78,17 @@ class GridConfig(GridSettings):
     """Total-variation weight on the colour grid."""
     tv_samples: int = setting(65536, lo=0, hi=1 << 26)
     """Vertices per step for the total variation, consecutive from a random start (0: the whole grid)."""
+    box: tuple | None = setting(None, lo=-1e6, hi=1e6)
+    """The lattice's extent ``(lo_x, lo_y[, lo_z], hi_x, hi_y[, hi_z])`` in the field's coordinates; the density is 0
+    outside it. None: the cube ``[-bound, bound]^D``. A sized recipe sets it from the data (the box around the
+    training views' visual hull), so the same vertices cover only what can hold the object."""
+    cells: tuple | None = setting(None, lo=0, above=True, hi=1e6)
+    """Cells along each axis, relative to one another (``resolution`` counts the vertices of the axis with the most).
+    None: in the box's proportions (cubic cells). A forward-facing capture's recipe gives fewer along the depth."""
 
     def settle(self) -> None:
-        """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side."""
+        """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side; a box has
+        ``2 D`` bounds, each low one below its high one, and ``cells`` one positive share per axis."""
         if self.initial_resolution is None:
             self.initial_resolution = self.resolution
         top = 8193 if self.dim == 2 else 513
@@ -85,7 +96,30 @@ class GridConfig(GridSettings):
             if getattr(self, name) > top:
                 raise ConfigError(f"{'--grid-resolution' if name == 'resolution' else '--set ' + name} "
                                   f"{getattr(self, name)}: a {self.dim}D grid has at most {top} vertices a side")
+        D = self.dim
+        if self.box is not None:
+            self.box = tuple(float(v) for v in self.box)
+            if len(self.box) != 2 * D or any(self.box[a] >= self.box[D + a] for a in range(D)):
+                raise ConfigError(f"box needs {2 * D} numbers, the low ends then the high ends, each low one below "
+                                  f"its high one, e.g. --set box=[{','.join(['-1'] * D + ['1'] * D)}]")
+        if self.cells is not None:
+            self.cells = tuple(float(v) for v in self.cells)
+            if len(self.cells) != D:
+                raise ConfigError(f"cells needs one share per axis ({D}), e.g. --set cells=[{','.join(['1'] * D)}]")
         super().settle()
+
+    @property
+    def extent(self) -> tuple[list, list]:
+        """The lattice's low and high ends per axis."""
+        if self.box is None:
+            return [-self.bound] * self.dim, [self.bound] * self.dim
+        return list(self.box[:self.dim]), list(self.box[self.dim:])
+
+    def lattice(self, res: int) -> list:
+        """Vertices per axis of the lattice whose fullest axis has ``res`` (at least 2 on each)."""
+        lo, hi = self.extent
+        share = self.cells or [h - l for l, h in zip(lo, hi)]
+        return [max(2, round((res - 1) * s / max(share)) + 1) for s in share]
 
     def final(self) -> "GridConfig":
         return dataclasses.replace(self, initial_resolution=self.resolution)
@@ -104,17 +138,31 @@ class GridConfig(GridSettings):
 def lattice_corners(x: list, bound: float, res: int):
     """``(integer coordinates, bi/trilinear weight)`` of the cell corners around points ``x`` (D arrays) on a
     lattice of ``res^D`` vertices over ``[-bound, bound]^D`` (vertex ``k`` at ``-bound + 2 bound k / (res - 1)``)."""
-    u = [dr.clip((xi * (1.0 / bound) + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001) for xi in x]
+    return box_corners(x, [-bound] * len(x), [bound] * len(x), [res] * len(x))
+
+
+def box_corners(x: list, lo: list, hi: list, shape: list):
+    """:func:`lattice_corners` on a box: ``shape[a]`` vertices from ``lo[a]`` to ``hi[a]`` along axis ``a``."""
+    u = []
+    for xi, l, h, n in zip(x, lo, hi, shape):
+        c, r = 0.5 * (l + h), 0.5 * (h - l)
+        u.append(dr.clip(((xi if c == 0 else xi - c) * (1.0 / r) + 1.0) * (0.5 * (n - 1)), 0.0, n - 1.0001))
     i0 = [dr.floor(ui) for ui in u]
     return cell_corners([UInt32(f) for f in i0], [ui - f for ui, f in zip(u, i0)])
 
 
-def corner_weights(x: list, bound: float, res: int):
+def strides(shape: list) -> list:
+    """Flat-index step of each axis of a lattice stored x fastest."""
+    return [int(np.prod(shape[:a])) for a in range(len(shape))]
+
+
+def corner_weights(x: list, lo: list, hi: list, shape: list):
     """``([(flat index UInt32, bi/trilinear weight Float)] of the cell corners, inside Bool)`` of points ``x``
-    (D arrays) in a grid of ``res^D`` vertices; ``inside``: whether a point lies in ``[-bound, bound]^D``."""
-    corners = [(sum((k * res ** a for a, k in enumerate(key)), UInt32(0)), weight)
-               for key, weight in lattice_corners(x, bound, res)]
-    return corners, dr.all([dr.abs(xi) <= bound for xi in x])
+    (D arrays) in a lattice of ``shape`` vertices over the box ``lo``-``hi``; ``inside``: whether a point lies in it."""
+    step = strides(shape)
+    corners = [(sum((k * s for s, k in zip(step, key)), UInt32(0)), weight)
+               for key, weight in box_corners(x, lo, hi, shape)]
+    return corners, dr.all([(xi >= l) & (xi <= h) for xi, l, h in zip(x, lo, hi)])
 
 
 def interpolate(grid: Float, channels: int, corners, active=True) -> list:
@@ -173,16 +221,35 @@ class GridField(LatticeField):
 
     scattered = True
 
+    def __init__(self, cfg: GridConfig):
+        super().__init__(cfg)
+        self._sizes = {}
+        """Vertex count -> vertices along the fullest axis, for :meth:`resolution_of`."""
+
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
-        shape = (self.cfg.initial_resolution,) * self.dim
+        shape = tuple(self.cfg.lattice(self.cfg.initial_resolution)[::-1])         # numpy order: x last
         color = np.random.default_rng(seed).normal(0, 0.01, shape + (3 * self.cfg.color_coeffs,)).astype(np.float32)
         return {"density": np.full(shape, self.cfg.density_init / self.cfg.density_scale, np.float32), "color": color}
 
     def resolution_of(self, params) -> int:
-        return int(round(dr.width(params["density"]) ** (1.0 / self.dim)))
+        """Vertices along the fullest axis of the lattice ``params`` hold (read from its size)."""
+        n, cfg = dr.width(params["density"]), self.cfg
+        guess = round(n ** (1.0 / self.dim))
+        if cfg.box is None and cfg.cells is None and guess ** self.dim == n:
+            return guess
+        if n not in self._sizes:
+            self._sizes.update({int(np.prod(cfg.lattice(r))): r for r in range(2, 8194)})
+        if n in self._sizes:
+            return self._sizes[n]
+        raise CheckpointError(f"a grid of {n} vertices fits no resolution of this box and cells; the weights were "
+                              "saved with another configuration")
+
+    def shape_of(self, params) -> list:
+        """Vertices per axis of the lattice ``params`` hold, x first."""
+        return self.cfg.lattice(self.resolution_of(params))
 
     def to_numpy(self, params) -> dict:
-        shape = (self.resolution_of(params),) * self.dim
+        shape = tuple(self.shape_of(params)[::-1])
         return {"density": np.asarray(params["density"]).reshape(shape),
                 "color": np.asarray(params["color"]).reshape(shape + (3 * self.cfg.color_coeffs,))}
 
@@ -191,7 +258,7 @@ class GridField(LatticeField):
 
     def _sigma(self, params, x):
         """Density at ``x``, and the cell corners around it."""
-        corners, inside = corner_weights(list(x), self.cfg.bound, self.resolution_of(params))
+        corners, inside = corner_weights(list(x), *self.cfg.extent, self.shape_of(params))
         raw = interpolate(params["density"], 1, corners)[0] * self.cfg.density_scale
         return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
 
@@ -200,12 +267,12 @@ class GridField(LatticeField):
 
     def resize(self, params, res: int) -> dict:
         """Resample both grids to ``res`` vertices per axis (coarse to fine)."""
-        old = self.resolution_of(params)
-        if res == old:
+        if res == self.resolution_of(params):
             return params
-        axis = [np.linspace(-self.cfg.bound, self.cfg.bound, res, dtype=np.float32)] * self.dim
-        pts = [Float(v.ravel()) for v in np.meshgrid(*axis, indexing="ij")[::-1]]   # x fastest
-        corners, _ = corner_weights(pts, self.cfg.bound, old)
+        lo, hi = self.cfg.extent
+        axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, self.cfg.lattice(res))]
+        pts = [Float(v.ravel()) for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]]   # x fastest
+        corners, _ = corner_weights(pts, lo, hi, self.shape_of(params))
         C = 3 * self.cfg.color_coeffs
         with dr.suspend_grad():
             dens = interpolate(dr.detach(params["density"]), 1, corners)[0]
@@ -224,10 +291,10 @@ class GridField(LatticeField):
         cfg = self.cfg
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
-        res = self.resolution_of(params)
-        v = tv_vertices(seed, cfg.tv_samples, res ** self.dim)
-        strides = [res ** a for a in range(self.dim)]
-        ok = [(v // stride) % res < res - 1 for stride in strides]      # has a neighbour along each axis
+        shape = self.shape_of(params)
+        step = strides(shape)
+        v = tv_vertices(seed, cfg.tv_samples, int(np.prod(shape)))
+        ok = [(v // s) % n < n - 1 for s, n in zip(step, shape)]      # has a neighbour along each axis
         total = Float(0.0)
         for name, weight, C in (("density", cfg.tv_weight, 1), ("color", cfg.tv_color_weight, 3 * cfg.color_coeffs)):
             if weight <= 0:
@@ -235,7 +302,7 @@ class GridField(LatticeField):
             per_vertex = Float(0.0)
             for c in range(C):
                 here = dr.gather(Float, params[name], v * C + c)
-                for stride, has in zip(strides, ok):
+                for stride, has in zip(step, ok):
                     there = dr.gather(Float, params[name], (v + stride) * C + c, has)
                     per_vertex += dr.select(has, dr.square(there - here), 0.0)
             total = total + weight * (cfg.density_scale ** 2 if name == "density" else 1.0) * dr.mean(per_vertex)

@@ -162,11 +162,13 @@ def run_torch(model_cfg: ModelConfig, weights: dict, o, d, cot: dict, seed: int)
     return res, grads
 
 
-def finite_differences(field: str, dim: int, seed: int = 0, scene: str = "object") -> float:
+def finite_differences(field: str, dim: int, seed: int = 0, scene: str = "object", field_args: dict | None = None
+                       ) -> float:
     """Worst relative error of the custom-op gradient of a tiny case against central differences (fp32,
-    eps 1e-2); every colour counts (``w_min = 0``), so no step moves a sample across the colour threshold."""
+    eps 1e-2); every colour counts (``w_min = 0``), so no step moves a sample across the colour threshold;
+    ``field_args`` replace some of :data:`FIELD_ARGS`."""
     space = RenderConfig(scene=scene, frame=FRAMES[scene]).space
-    args = {**FIELD_ARGS[field], "dim": dim, "bound": FRAMES[scene].get("bound", 1.5)}
+    args = {**FIELD_ARGS[field], **(field_args or {}), "dim": dim, "bound": FRAMES[scene].get("bound", 1.5)}
     if field == "vanilla":
         args.update(width=8, depth=2, pos_L=2, dir_L=2, density_activation="softplus", mode="coopvec")
     if field == "hashgrid":
@@ -204,11 +206,12 @@ def finite_differences(field: str, dim: int, seed: int = 0, scene: str = "object
 
 
 def check_parity(field: str = "vanilla", dim: int = 2, rays: int = 64, samples: int = 32, fine: int = 16,
-                 width: int = 16, seed: int = 0, scene: str = "object") -> Parity:
+                 width: int = 16, seed: int = 0, scene: str = "object", field_args: dict | None = None) -> Parity:
     """Every path of ``field`` (``dim`` D; the MLP ``width`` wide) and the torch twin on the same weights, ``rays``
     rays of ``samples`` coarse and ``fine`` fine samples (0: no fine pass) and cotangents, drawn from ``seed``, in
-    the space of ``scene`` (:data:`FRAMES`; 3D)."""
-    mc = ModelConfig(field, {**FIELD_ARGS[field], **({"width": width} if field == "vanilla" else {})},
+    the space of ``scene`` (:data:`FRAMES`; 3D); ``field_args`` replace some of :data:`FIELD_ARGS`."""
+    args = {**FIELD_ARGS[field], **(field_args or {}), **({"width": width} if field == "vanilla" else {})}
+    mc = ModelConfig(field, args,
                      RenderConfig(n_coarse=samples, n_fine=fine, background=(0.2, 0.3, 0.4), scene=scene,
                                   frame=FRAMES[scene]))
     model = build_model(mc, dim, bound_of(mc))
@@ -226,4 +229,4 @@ def check_parity(field: str = "vanilla", dim: int = 2, rays: int = 64, samples: 
     values = {k: [float(np.abs(r[0][k] - v).max()) for r in runs.values()] for k, v in ref_vals.items()}
     grads = {k: [float(np.abs(r[1][k].ravel() - v.ravel()).max()) / (float(np.abs(v).max()) + 1e-12)
                  for r in runs.values()] for k, v in ref_grads.items()}
-    return Parity(list(runs), values, grads, finite_differences(field, dim, seed, scene))
+    return Parity(list(runs), values, grads, finite_differences(field, dim, seed, scene, field_args))

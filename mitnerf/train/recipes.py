@@ -17,7 +17,7 @@ from ..settings import field_named
 from .config import ModelConfig, TrainConfig
 
 
-SIZES = {"grid": ("resolution", "initial_resolution"), "hashlinear": ("resolutions",),
+SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells"), "hashlinear": ("resolutions",),
          "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
 """The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
 
@@ -31,8 +31,8 @@ class Sizing:
     """Finest lattice spacing per pixel footprint at the scene's centre (the training cameras' median distance to
     the origin over the focal length): 1, one vertex per pixel."""
     max_resolution: int = 193
-    """Vertices per axis of the finest lattice at most: a dense grid's memory and the work of each step grow with
-    its cube."""
+    """The finest lattice has at most as many vertices as a cube of this many a side (a box's fullest axis more):
+    a dense grid's memory grows with its vertex count."""
     doublings: int = 2
     """Coarse to fine: the lattice starts this many doublings coarser (the grid's ``initial_resolution``; the linearly
     decoded hash grid's levels, one per doubling)."""
@@ -40,6 +40,8 @@ class Sizing:
     """Occupancy bins along a ray (the finest sample spacing) per lattice spacing."""
     samples: int = 64
     """Samples per ray (the occupancy sampler's slots)."""
+    depth_cells: float = 1.0
+    """A dense grid in a forward-facing scene (NDC): cells along the depth axis per cell across the views' width."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
 
@@ -80,29 +82,44 @@ class Recipe:
                    None if sizing is None else Sizing(**{**sizing, "fixed": tuple(sizing["fixed"])}))
 
     def sized(self, dataset) -> "Recipe":
-        """A copy with the sizes :attr:`sizing` takes from ``dataset`` (``self`` where it has none): the finest
-        lattice ``R`` (vertices per axis) spans the bound with one vertex per :attr:`Sizing.vertices_per_pixel` pixel
-        footprints, at most :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to
-        fine from ``c + 1``); occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
+        """A copy with the sizes :attr:`sizing` takes from ``dataset`` (``self`` where it has none): a dense grid's
+        lattice spans the box around the training views' visual hull where the data has one (:attr:`Dataset.hull_box`,
+        an object scene), else the cube of the bound; its fullest axis has ``R`` vertices, one per
+        :attr:`Sizing.vertices_per_pixel` pixel footprints, at most as many in all as a cube of
+        :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
+        occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
         an occupancy cell per two lattice spacings (up to 128 per axis). A size set on the recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
         out.sizing, args, r = None, out.model.field_args, out.model.render
         d = s.doublings
+        grid, cams = out.model.field == "grid", dataset["train"].cameras
+        forward = grid and r.scene == "forward"
+        if not grid or "box" in s.fixed:
+            box = args.get("box")
+        else:
+            box = dataset.hull_box if r.scene in ("object", "auto") else None
+        if not grid or "cells" in s.fixed:
+            cells = args.get("cells")
+        else:   # NDC spans the views' width and height alike: as many vertices per pixel across and up
+            cells = (1.0, cams.height / cams.width, s.depth_cells) if forward else None
+        extent = [h - l for l, h in zip(box[:dataset.dim], box[dataset.dim:])] if box else [2 * dataset.bound]
+        share = [e / max(cells or extent) for e in (cells or extent)]
         if "resolution" in s.fixed or "resolutions" in s.fixed:
             top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
         else:
-            cams = dataset["train"].cameras
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
-            top = min(2 * dataset.bound / footprint * s.vertices_per_pixel + 1, s.max_resolution)
+            across = cams.width if forward else max(extent) / footprint          # pixels along the fullest axis
+            cap = (s.max_resolution - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
+            top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1
-        sizes = {"resolution": R, "initial_resolution": c + 1,
+        sizes = {"resolution": R, "initial_resolution": c + 1, "box": box, "cells": cells,
                  "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
-                 "occupancy.resolution": min(128, (R - 1) // 2),
+                 "occupancy.resolution": min(128, round((R - 1) * dataset.bound / max(extent))),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
-                                                     / (2 * dataset.bound)))}
+                                                     / max(extent)))}
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
             if key not in s.fixed:
                 if key.startswith("occupancy."):
@@ -193,7 +210,7 @@ class Recipe:
     def summary(self) -> str:
         """One line: the family and its settings (its network's ``mode`` always), samples, budget, rate, losses."""
         args = {**self.model.field_args, **({"mode": self.get("mode")} if self.has("mode") else {})}
-        args = ", ".join(f"{k}={v}" for k, v in args.items())
+        args = ", ".join(f"{k}={v}" for k, v in args.items() if v is not None or k not in ("box", "cells"))
         r, t = self.model.render, self.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
         occ = (f", occupancy grid {r.occupancy.resolution}^{self.dim} of {r.occupancy.march_bins} bins a ray"
@@ -255,14 +272,15 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
                                 **_BUDGET),
        "the levels summed into one density and colour (view harmonics on the coarsest level); grid-2d's losses and "
        "rate"),
-    _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-4,
+    _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-5,
                                   view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
-       "the lattice capped at 161^3 (the grid's training state grows with its cube); a high learning rate (a budget "
-       "of seconds buys few steps); a colour TV 30 times weaker than 2D's (views of 100 x 100 carry texture and "
-       "highlights that 2D's weight blurs away)",
+       "the lattice over the box around the views' visual hull where the data has one, as many vertices as a 161^3 "
+       "cube at most (the grid's training state grows with them); a high learning rate (a budget of seconds buys few "
+       "steps); a density TV ten times and a colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry "
+       "detail, texture and highlights that 2D's weights blur away)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
@@ -287,7 +305,9 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(n_coarse=64, scene="forward"),
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
-       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity"),
+       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity; as many "
+       "vertices as grid-3d's 161^3, spaced alike across and up the views, four times wider along the depth",
+       Sizing(vertices_per_pixel=1.0, max_resolution=161, doublings=2, samples_per_vertex=1.0, depth_cells=0.25)),
     _r("grid-unbounded", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000),
                                          tv_weight=1e-4, view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, scene="unbounded", occupancy=dict(enabled=True, resolution=64, march_bins=512)),

@@ -7,22 +7,34 @@ import torch
 from torch import nn
 
 from ...fields.base import cell_corners
-from ...fields.grid import TV_SALT, GridConfig, view_basis
+from ...fields.grid import TV_SALT, GridConfig, strides, view_basis
 from ...rng import batch_indices
 from .mlp import TwinField, density_activation
 
 
 def lattice_corners(x: torch.Tensor, bound: float, res: int) -> list:
     """``x [n, D]`` -> list of (D integer coordinates [n], weight [n]), in the Dr.Jit corner order."""
-    u = torch.clamp((x / bound + 1.0) * (0.5 * (res - 1)), 0.0, res - 1.0001)
+    D = x.shape[1]
+    return box_corners(x, [-bound] * D, [bound] * D, [res] * D)
+
+
+def box_corners(x: torch.Tensor, lo: list, hi: list, shape: list) -> list:
+    """:func:`lattice_corners` on a box: ``shape[a]`` vertices from ``lo[a]`` to ``hi[a]`` along axis ``a``."""
+    u = []
+    for xi, l, h, n in zip(x.unbind(1), lo, hi, shape):
+        c, r = 0.5 * (l + h), 0.5 * (h - l)
+        u.append(torch.clamp(((xi if c == 0 else xi - c) * (1.0 / r) + 1.0) * (0.5 * (n - 1)), 0.0, n - 1.0001))
+    u = torch.stack(u, 1)
     i0 = torch.floor(u)
     return list(cell_corners(list(i0.long().unbind(1)), list((u - i0).unbind(1))))
 
 
-def corner_weights(x: torch.Tensor, bound: float, res: int):
+def corner_weights(x: torch.Tensor, lo: list, hi: list, shape: list):
     """``x [n, D]`` -> list of (flat index [n], weight [n]) and inside [n]."""
-    corners = [(sum(k * res ** a for a, k in enumerate(key)), w) for key, w in lattice_corners(x, bound, res)]
-    return corners, (x.abs() <= bound).all(dim=-1)
+    step = strides(shape)
+    corners = [(sum(k * s for s, k in zip(step, key)), w) for key, w in box_corners(x, lo, hi, shape)]
+    low, high = x.new_tensor(lo), x.new_tensor(hi)
+    return corners, ((x >= low) & (x <= high)).all(dim=-1)
 
 
 def harmonic_rgb(raw: torch.Tensor, d: torch.Tensor, degree: int) -> torch.Tensor:
@@ -41,13 +53,19 @@ def interpolate(grid: torch.Tensor, corners) -> torch.Tensor:
 class GridField(TwinField):
     def __init__(self, cfg: GridConfig):
         super().__init__(cfg)
-        n = cfg.initial_resolution ** cfg.dim
+        n = int(np.prod(cfg.lattice(cfg.initial_resolution)))
         self.density_grid = nn.Parameter(torch.zeros(n, 1))
         self.color_grid = nn.Parameter(torch.zeros(n, 3 * cfg.color_coeffs))
 
     @property
     def res(self) -> int:
-        return int(round(self.density_grid.shape[0] ** (1.0 / self.dim)))
+        """Vertices along the fullest axis (read from the grid's size, as the Dr.Jit field does)."""
+        n = self.density_grid.shape[0]
+        return next(r for r in range(2, 8194) if int(np.prod(self.cfg.lattice(r))) == n)
+
+    @property
+    def shape(self) -> list:
+        return self.cfg.lattice(self.res)
 
     def load_numpy(self, arrays) -> None:
         d = torch.as_tensor(np.asarray(arrays["density"], np.float32).reshape(-1, 1))
@@ -55,7 +73,7 @@ class GridField(TwinField):
         self.density_grid, self.color_grid = nn.Parameter(d), nn.Parameter(c)
 
     def to_numpy(self) -> dict:
-        shape = (self.res,) * self.dim
+        shape = tuple(self.shape[::-1])
         return {"density": self.density_grid.detach().numpy().reshape(shape),
                 "color": self.color_grid.detach().numpy().reshape(shape + (-1,))}
 
@@ -63,9 +81,10 @@ class GridField(TwinField):
         res = self.cfg.resolution_at(step)
         if res == self.res:
             return False
-        axis = [np.linspace(-self.cfg.bound, self.cfg.bound, res, dtype=np.float32)] * self.dim
-        pts = np.stack([v.ravel() for v in np.meshgrid(*axis, indexing="ij")[::-1]], 1)
-        corners, _ = corner_weights(torch.from_numpy(pts), self.cfg.bound, self.res)
+        lo, hi = self.cfg.extent
+        axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, self.cfg.lattice(res))]
+        pts = np.stack([v.ravel() for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]], 1)
+        corners, _ = corner_weights(torch.from_numpy(pts), lo, hi, self.shape)
         with torch.no_grad():
             self.density_grid = nn.Parameter(interpolate(self.density_grid, corners))
             self.color_grid = nn.Parameter(interpolate(self.color_grid, corners))
@@ -76,29 +95,30 @@ class GridField(TwinField):
         return torch.where(inside, density_activation(raw, self.cfg.density_activation), torch.zeros_like(raw))
 
     def density(self, x):
-        corners, inside = corner_weights(x, self.cfg.bound, self.res)
+        corners, inside = corner_weights(x, *self.cfg.extent, self.shape)
         return self._sigma(corners, inside)
 
     def query(self, x, d):
-        corners, inside = corner_weights(x, self.cfg.bound, self.res)
+        corners, inside = corner_weights(x, *self.cfg.extent, self.shape)
         sigma = self._sigma(corners, inside)
         raw = interpolate(self.color_grid, corners).reshape(-1, 3, self.cfg.color_coeffs)
         return sigma, harmonic_rgb(raw, d, self.cfg.sh_degree)
 
     def regularizer(self, seed: int):
-        cfg, res = self.cfg, self.res
+        cfg, shape = self.cfg, self.shape
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
-        v = tv_vertices(seed, cfg.tv_samples, res ** self.dim)
+        step = strides(shape)
+        v = tv_vertices(seed, cfg.tv_samples, int(np.prod(shape)))
         total = 0.0
         for grid, weight, scale in ((self.density_grid, cfg.tv_weight, cfg.density_scale ** 2),
                                     (self.color_grid, cfg.tv_color_weight, 1.0)):
             if weight <= 0:
                 continue
             per_vertex = 0.0
-            for a in range(self.dim):
-                ok = ((v // res ** a) % res) < res - 1
-                diff = grid[torch.where(ok, v + res ** a, v)] - grid[v]
+            for s, n in zip(step, shape):
+                ok = ((v // s) % n) < n - 1
+                diff = grid[torch.where(ok, v + s, v)] - grid[v]
                 per_vertex = per_vertex + torch.where(ok[:, None], diff * diff, torch.zeros_like(diff)).sum(1)
             total = total + weight * scale * per_vertex.mean()
         return total
