@@ -225,22 +225,6 @@ def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():
     assert GridConfig(dim=3, **args).lattice(321) == [161, 321, 81]
 
 
-def test_a_forward_facing_grid_is_finer_across_the_views_than_along_their_depth():
-    """NDC spans the views' width and height: views of 400 x 300 give cells (1, 0.75, 0.25) (a quarter along the
-    depth); 161^3 vertices allow 160 / (0.1875)^(1/3) + 1 = 280.6 along x (the views would give 401): 70 * 4 + 1 =
-    281, so 281 x 211 x 71 vertices, from 71 x 53 x 19."""
-    from mitnerf.fields.grid import GridConfig
-
-    poses = np.stack([np.eye(4)] * 3)
-    views = np.zeros((3, 300, 400, 3), np.float32)
-    split = Split(Cameras(poses, 500.0, 300, 400), views, np.ones(views.shape[:3], np.float32))
-    args = get_recipe("grid-forward").sized(Dataset({"train": split, "test": split}, 2.0, 6.0, {})).model.field_args
-    assert (args["cells"], args["box"], args["resolution"], args["initial_resolution"]) == ((1.0, 0.75, 0.25), None,
-                                                                                            281, 71)
-    cfg = GridConfig(dim=3, **args)
-    assert cfg.lattice(281) == [281, 211, 71] and cfg.lattice(71) == [71, 53, 19]
-
-
 def test_a_recipe_is_sized_for_cameras_with_a_lens():
     """Sizing reads the focal lengths of any camera (per-frame intrinsics, distortion): the same lattice as the
     pinhole views of the same focal (``views_at(555.5)``: 161, the first row of the table above)."""

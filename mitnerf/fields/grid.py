@@ -3,10 +3,9 @@
 Values live on a lattice of vertices over a box: by default ``R^D`` vertices spanning ``[-bound, bound]^D``
 (vertex ``k`` at ``-bound + 2 bound k / (R - 1)``); with ``box`` and ``cells``, ``n_a`` vertices from ``lo_a`` to
 ``hi_a`` along each axis, ``R`` on the fullest. Sized from the data, the lattice spans the box around the object
-(the views' visual hull: the same vertices in less volume, so finer cells for the same memory), or, in a
-forward-facing capture's NDC, is finer across the views than along their depth. A query interpolates raw values
-(bi/trilinear) and *then* applies the activations, so a surface can be sharper than a cell, as in Plenoxels and
-DVGO. Outside the box the density is 0. Every operation is a gather, so
+(the views' visual hull: the same vertices in less volume, so finer cells for the same memory). A query
+interpolates raw values (bi/trilinear) and *then* applies the activations, so a surface can be sharper than a
+cell, as in Plenoxels and DVGO. Outside the box the density is 0. Every operation is a gather, so
 the field is traceable (it runs inside the fused march); where the integral does not use a sample's colour
 (``keep``), only the density is read (one channel per corner instead of 1 + 3 x the colour's coefficients), so
 empty space and the inside of a surface cost that much less in the primal and the adjoint
@@ -84,7 +83,7 @@ class GridConfig(GridSettings):
     training views' visual hull), so the same vertices cover only what can hold the object."""
     cells: tuple | None = setting(None, lo=0, above=True, hi=1e6)
     """Cells along each axis, relative to one another (``resolution`` counts the vertices of the axis with the most).
-    None: in the box's proportions (cubic cells). A forward-facing capture's recipe gives fewer along the depth."""
+    None: in the box's proportions (cubic cells)."""
 
     def settle(self) -> None:
         """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side; a box has

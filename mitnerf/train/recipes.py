@@ -17,7 +17,7 @@ from ..settings import field_named
 from .config import ModelConfig, TrainConfig
 
 
-SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells"), "hashlinear": ("resolutions",),
+SIZES = {"grid": ("resolution", "initial_resolution", "box"), "hashlinear": ("resolutions",),
          "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
 """The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
 
@@ -40,8 +40,6 @@ class Sizing:
     """Occupancy bins along a ray (the finest sample spacing) per lattice spacing."""
     samples: int = 64
     """Samples per ray (the occupancy sampler's slots)."""
-    depth_cells: float = 1.0
-    """A dense grid in a forward-facing scene (NDC): cells along the depth axis per cell across the views' width."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
 
@@ -95,27 +93,23 @@ class Recipe:
         out.sizing, args, r = None, out.model.field_args, out.model.render
         d = s.doublings
         grid, cams = out.model.field == "grid", dataset["train"].cameras
-        forward = grid and r.scene == "forward"
         if not grid or "box" in s.fixed:
             box = args.get("box")
         else:
             box = dataset.hull_box if r.scene in ("object", "auto") else None
-        if not grid or "cells" in s.fixed:
-            cells = args.get("cells")
-        else:   # NDC spans the views' width and height alike: as many vertices per pixel across and up
-            cells = (1.0, cams.height / cams.width, s.depth_cells) if forward else None
+        cells = args.get("cells")
         extent = [h - l for l, h in zip(box[:dataset.dim], box[dataset.dim:])] if box else [2 * dataset.bound]
         share = [e / max(cells or extent) for e in (cells or extent)]
         if "resolution" in s.fixed or "resolutions" in s.fixed:
             top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
         else:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
-            across = cams.width if forward else max(extent) / footprint          # pixels along the fullest axis
+            across = max(extent) / footprint                                     # pixels along the fullest axis
             cap = (s.max_resolution - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1
-        sizes = {"resolution": R, "initial_resolution": c + 1, "box": box, "cells": cells,
+        sizes = {"resolution": R, "initial_resolution": c + 1, "box": box,
                  "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
                  "occupancy.resolution": min(128, round((R - 1) * dataset.bound / max(extent))),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
@@ -305,9 +299,7 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(n_coarse=64, scene="forward"),
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
-       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity; as many "
-       "vertices as grid-3d's 161^3, spaced alike across and up the views, four times wider along the depth",
-       Sizing(vertices_per_pixel=1.0, max_resolution=161, doublings=2, samples_per_vertex=1.0, depth_cells=0.25)),
+       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity"),
     _r("grid-unbounded", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000),
                                          tv_weight=1e-4, view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, scene="unbounded", occupancy=dict(enabled=True, resolution=64, march_bins=512)),
