@@ -153,6 +153,15 @@ def test_nerfacto_scores_its_renders_with_mitnerfs_metrics_and_records_them(resu
     table = report.lego_table(load_results())
     assert "| `lego/nerfacto/60` (nerfacto) | 6 x 4 | 2 | 6.02 | 0.800 | 60 s, 7 steps |" in table
     assert "| `out/lego/600` on the same views | 6 x 4 | 2 | 25.00 | 0.900 | | |" in table
+    # --rescore trains nothing: the same renders, our newer fit
+    monkeypatch.setattr(nerfacto, "run", lambda cmd: pytest.fail("--rescore trained nerfacto"))
+    monkeypatch.setattr(nerfacto, "ours", lambda data, views: {"psnr": 26.0, "ssim": 0.9, "run": "out/lego/600"})
+    assert nerfacto.main(["--time-budget", "60", "--test-views", "2", "--data", str(tmp_path), "--rescore"]) == 0
+    entry = load_results()["lego/nerfacto/60"]
+    assert round(entry["values"]["psnr"], 2) == 6.02 and entry["values"]["ours"]["psnr"] == 26.0
+    assert "rescored" in entry["summary"] and entry["command"].endswith("--rescore")
+    shutil.rmtree(tmp_path / "out" / "lego" / "nerfacto-60")             # nothing to rescore: one line, exit 2
+    assert nerfacto.main(["--time-budget", "60", "--data", str(tmp_path), "--rescore"]) == 2
 
 
 def test_nerfacto_skips_with_one_line_without_its_interpreter(results, tmp_path, capsys):

@@ -222,6 +222,7 @@ class Dataset:
 
     @property
     def camera_radius(self) -> float:
+        """Foreign data's guess of the object's radius: the median camera distance minus ``near`` (at least 0.5)."""
         cams = np.concatenate([np.linalg.norm(s.cameras.origins, axis=1) for s in self.splits.values()])
         return max(float(np.median(cams)) - self.near, 0.5)
 

@@ -265,7 +265,7 @@ class GridField(LatticeField):
         return interpolate(params["color"], 3 * self.cfg.color_coeffs, corners, active)
 
     def resize(self, params, res: int) -> dict:
-        """Resample both grids to ``res`` vertices per axis (coarse to fine)."""
+        """Resample both grids to the lattice whose fullest axis has ``res`` vertices (coarse to fine)."""
         if res == self.resolution_of(params):
             return params
         lo, hi = self.cfg.extent
