@@ -100,20 +100,21 @@ class Recipe:
         cells = args.get("cells")
         extent = [h - l for l, h in zip(box[:dataset.dim], box[dataset.dim:])] if box else [2 * dataset.bound]
         share = [e / max(cells or extent) for e in (cells or extent)]
+        full = extent[int(np.argmax(share))] if len(extent) == len(share) else extent[0]   # the fullest axis' length
         if "resolution" in s.fixed or "resolutions" in s.fixed:
             top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
         else:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
-            across = max(extent) / footprint                                     # pixels along the fullest axis
+            across = full / footprint                                           # pixels along the fullest axis
             cap = (s.max_resolution - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1
         sizes = {"resolution": R, "initial_resolution": c + 1, "box": box,
                  "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
-                 "occupancy.resolution": min(128, round((R - 1) * dataset.bound / max(extent))),
+                 "occupancy.resolution": min(128, round((R - 1) * dataset.bound / full)),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
-                                                     / max(extent)))}
+                                                     / full))}
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
             if key not in s.fixed:
                 if key.startswith("occupancy."):
