@@ -56,10 +56,12 @@ SETTINGS = ("nerfstudio 1.1.5 nerfacto as ns-train builds it for blender-data (4
 """What the recorded run set (``settings`` in ``results.json``); ``_nerfacto_driver.py`` says why."""
 
 
-def missing(python: Path, data: Path) -> str | None:
-    """Why the benchmark cannot run (one line), or None."""
+def missing(python: Path | None, data: Path) -> str | None:
+    """Why the benchmark cannot run (one line), or None; ``python`` None: no interpreter needed (a rescore)."""
     if not (data / "transforms_test.json").is_file():
         return f"no Blender lego at {data} (see ../shared/data/README.md)"
+    if python is None:
+        return None
     if not python.is_file():
         return f"no interpreter at {python} (make it as benchmarks/nerfacto.py's docstring says, or give --python)"
     if subprocess.run([str(python), "-c", "import nerfstudio"], capture_output=True).returncode:
@@ -106,13 +108,13 @@ def main(argv=None) -> int:
                         "benchmarks/lego.py --parts 600) again")
     args = p.parse_args(argv)
     out = ROOT / "out" / "lego" / f"nerfacto-{args.time_budget}"
-    why = missing(args.python, args.data)
+    why = missing(None if args.rescore else args.python, args.data)
+    if why:
+        print(f"nerfacto: skipped, {why}")
+        return 0
     if args.rescore and not (out / "run.json").is_file():
         print(f"nerfacto: no earlier run in {out} to rescore; run without --rescore", file=sys.stderr)
         return 2
-    if why and not args.rescore:
-        print(f"nerfacto: skipped, {why}")
-        return 0
     from mitnerf.results import record_result
     from mitnerf.train.evaluate import test_views
 

@@ -120,6 +120,17 @@ class GridConfig(GridSettings):
         share = self.cells or [h - l for l, h in zip(lo, hi)]
         return [max(2, round((res - 1) * s / max(share)) + 1) for s in share]
 
+    def resolution_with(self, n: int) -> int:
+        """Vertices along the fullest axis of the lattice with ``n`` vertices in all (at least the D-th root of
+        ``n``: the search starts there, and the count grows with each step)."""
+        res = max(2, int(n ** (1.0 / self.dim)) - 1)
+        while (size := int(np.prod(self.lattice(res)))) < n:
+            res += 1
+        if size != n:
+            raise CheckpointError(f"a grid of {n} vertices fits no resolution of this box and cells; the weights "
+                                  "were saved with another configuration")
+        return res
+
     def final(self) -> "GridConfig":
         return dataclasses.replace(self, initial_resolution=self.resolution)
 
@@ -220,11 +231,6 @@ class GridField(LatticeField):
 
     scattered = True
 
-    def __init__(self, cfg: GridConfig):
-        super().__init__(cfg)
-        self._sizes = {}
-        """Vertex count -> vertices along the fullest axis, for :meth:`resolution_of`."""
-
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         shape = tuple(self.cfg.lattice(self.cfg.initial_resolution)[::-1])         # numpy order: x last
         color = np.random.default_rng(seed).normal(0, 0.01, shape + (3 * self.cfg.color_coeffs,)).astype(np.float32)
@@ -232,16 +238,7 @@ class GridField(LatticeField):
 
     def resolution_of(self, params) -> int:
         """Vertices along the fullest axis of the lattice ``params`` hold (read from its size)."""
-        n, cfg = dr.width(params["density"]), self.cfg
-        guess = round(n ** (1.0 / self.dim))
-        if cfg.box is None and cfg.cells is None and guess ** self.dim == n:
-            return guess
-        if n not in self._sizes:
-            self._sizes.update({int(np.prod(cfg.lattice(r))): r for r in range(2, 8194)})
-        if n in self._sizes:
-            return self._sizes[n]
-        raise CheckpointError(f"a grid of {n} vertices fits no resolution of this box and cells; the weights were "
-                              "saved with another configuration")
+        return self.cfg.resolution_with(dr.width(params["density"]))
 
     def shape_of(self, params) -> list:
         """Vertices per axis of the lattice ``params`` hold, x first."""

@@ -110,13 +110,13 @@ class Recipe:
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1
-        sizes = {"resolution": R, "initial_resolution": c + 1, "box": box,
+        sizes = {"resolution": R, "initial_resolution": c + 1, **({"box": box} if box else {}),
                  "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
                  "occupancy.resolution": min(128, round((R - 1) * dataset.bound / full)),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
                                                      / full))}
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
-            if key not in s.fixed:
+            if key not in s.fixed and key in sizes:
                 if key.startswith("occupancy."):
                     setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
                 elif key == "n_coarse":
@@ -205,7 +205,7 @@ class Recipe:
     def summary(self) -> str:
         """One line: the family and its settings (its network's ``mode`` always), samples, budget, rate, losses."""
         args = {**self.model.field_args, **({"mode": self.get("mode")} if self.has("mode") else {})}
-        args = ", ".join(f"{k}={v}" for k, v in args.items() if v is not None or k not in ("box", "cells"))
+        args = ", ".join(f"{k}={v}" for k, v in args.items())
         r, t = self.model.render, self.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
         occ = (f", occupancy grid {r.occupancy.resolution}^{self.dim} of {r.occupancy.march_bins} bins a ray"

@@ -60,8 +60,7 @@ class GridField(TwinField):
     @property
     def res(self) -> int:
         """Vertices along the fullest axis (read from the grid's size, as the Dr.Jit field does)."""
-        n = self.density_grid.shape[0]
-        return next(r for r in range(2, 8194) if int(np.prod(self.cfg.lattice(r))) == n)
+        return self.cfg.resolution_with(self.density_grid.shape[0])
 
     @property
     def shape(self) -> list:
