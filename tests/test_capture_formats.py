@@ -248,3 +248,35 @@ def test_the_fox_loads_with_its_lens_and_absent_frames_skipped():
     pixel = c.subset([0]).project((o + 3 * d).reshape(-1, 3))[0][0]
     v, u = np.meshgrid(np.arange(240) + 0.5, np.arange(135) + 0.5, indexing="ij")
     np.testing.assert_allclose(pixel, np.stack([v, u], -1).reshape(-1, 2), atol=1e-6)
+
+
+def test_views_read_as_eight_bits_unless_one_is_not(tmp_path):
+    """8-bit views come back as the 8 bits a split holds (no float copy of the split); one 16-bit view among them
+    turns the whole read to float32 (values, not file types, decide: a 16-bit 0.2 would be 8 bits), and both hold
+    what the images do: 51 / 255 = 0.2 at alpha 1, and the 16-bit grey 13000 / 65535 = 0.19837."""
+    import imageio.v3 as iio
+
+    from mitnerf.data.dataset import decode
+    from mitnerf.data.formats.capture import read_views
+
+    grey8 = np.full((4, 6, 3), 51, np.uint8)
+    for i in range(3):
+        iio.imwrite(tmp_path / f"{i}.png", grey8)
+    paths = [tmp_path / f"{i}.png" for i in range(3)]
+    c8, a8 = read_views(paths, 1, str(tmp_path))
+    assert c8.dtype == a8.dtype == np.uint8 and c8.shape == (3, 4, 6, 3) and a8.shape == (3, 4, 6)
+    color, alpha = decode(c8, a8)
+    np.testing.assert_allclose(color, 0.2, atol=1e-7)
+    np.testing.assert_array_equal(alpha, 1.0)
+    iio.imwrite(tmp_path / "1.png", np.full((4, 6), 13000, np.uint16))          # the middle one, 16-bit grey
+    cf, af = read_views(paths, 1, str(tmp_path))
+    assert cf.dtype == af.dtype == np.float32
+    np.testing.assert_array_equal(cf[0], color[0])                 # the 8-bit view before it, decoded exactly
+    np.testing.assert_allclose(cf[[0, 2]], 0.2, atol=1e-7)
+    np.testing.assert_allclose(cf[1], 13000 / 65535, atol=1e-7)
+    checker = np.zeros((4, 6, 3), np.uint8)
+    checker[::2, ::2] = checker[1::2, 1::2] = 255
+    iio.imwrite(tmp_path / "c.png", checker)
+    halved, _ = read_views([tmp_path / "c.png"], 2, str(tmp_path))    # 2 x 2 boxes of 0 and 255: 0.5, not 8 bits
+    assert halved.dtype == np.float32 and halved.shape == (1, 2, 3, 3)
+    np.testing.assert_allclose(halved, 0.5, atol=1e-7)

@@ -14,7 +14,7 @@ from tqdm.auto import tqdm
 
 from ...errors import ConfigError, DataError, MitnerfError, Note
 from ..cameras import Cameras
-from ..dataset import Dataset, Split, box_downscale
+from ..dataset import Dataset, Split, box_downscale, decode, eight_bit
 from ..lens import COEFFICIENTS, fold_radius, jacobian, undistort
 from .common import as_rgba, check_focal, number, read_meta, read_view, view_size
 
@@ -120,20 +120,32 @@ def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] 
                size: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Views of one size as ``(colour [n, h, w, 3] premultiplied by alpha, alpha [n, h, w])`` float32, box-filtered
     by ``downscale`` (views one pixel wide, 2D, along their rows only): the image's own alpha, or ``masks`` (grey,
-    1 = the object) when given. Sizes and the memory of the result are checked from the headers first
-    (:func:`~.common.view_size`), unless the caller did and gives their ``size`` ``(H, W)``."""
+    1 = the object) when given. Where every view is 8-bit values as read (no box filter, no mask that is not 8-bit),
+    they come back as :class:`~mitnerf.data.dataset.Split` holds them, straight colour and coverage in uint8, one
+    view at a time, so no float copy of the split is ever whole. Sizes and the memory of the result are checked from
+    the headers first (:func:`~.common.view_size`), unless the caller did and gives their ``size`` ``(H, W)``."""
     H, W = size or view_size(paths, where, downscale)
     cols = 1 if W == 1 else downscale                  # a 2D view keeps its one column
     h, w = H // downscale, W // cols
-    color, alpha = np.empty((len(paths), h, w, 3), np.float32), np.empty((len(paths), h, w), np.float32)
+    color8, alpha8 = np.empty((len(paths), h, w, 3), np.uint8), np.empty((len(paths), h, w), np.uint8)
+    color = alpha = None                                # float32, from the first view that is not 8 bits
     for i, p in enumerate(tqdm(paths, desc=f"read {Path(where).name}", unit="view", delay=1, leave=False)):
         rgba = as_rgba(read_view(p, (H, W)))
         if masks is not None:
             rgba[..., 3] = as_rgba(read_view(masks[i], (H, W), "a mask"))[..., 0]
         rgba[..., :3] *= rgba[..., 3:]
         small = box_downscale(rgba[None], downscale, cols)[0]
-        color[i], alpha[i] = small[..., :3], small[..., 3]
-    return color, alpha
+        c, a = small[..., :3], small[..., 3]
+        q = eight_bit(c, a) if color is None else None
+        if q is not None:
+            color8[i], alpha8[i] = q
+            continue
+        if color is None:                               # decode the views before this one, hold floats from here
+            color, alpha = np.empty(color8.shape, np.float32), np.empty(alpha8.shape, np.float32)
+            color[:i], alpha[:i] = decode(color8[:i], alpha8[:i])
+            color8 = alpha8 = None
+        color[i], alpha[i] = c, a
+    return (color8, alpha8) if color is None else (color, alpha)
 
 
 def capture_dataset(path: Path, fmt: str, views: Split, split: dict, downscale: int, near_far, **info) -> Dataset:

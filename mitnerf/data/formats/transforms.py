@@ -250,7 +250,7 @@ def _read_frames(root: Path, header: dict, frames: list, where: str, depth_unit:
         if a.min() < 0 or a.max() > 1:
             raise DataError(f"{where}: a _linear.npy file holds alpha outside [0, 1]; regenerate the dataset")
         color = display_color(linear, a)
-    return Split(cams, color.astype(np.float32), a.astype(np.float32), depth, mask, linear)
+    return Split(cams, color, a.astype(color.dtype), depth, mask, linear)
 
 
 def _pick(path: Path, header: dict, where: str) -> tuple[dict[str, list], list[str], int]:
