@@ -14,7 +14,6 @@ and each array's presence, shape, dtype, SHA-256 and finiteness; a failure raise
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import math
 import zipfile
@@ -28,7 +27,7 @@ from ..errors import CheckpointError, MitnerfError
 from ..viz.views import plot_curves, save_density, save_renders
 from .auto import final_params
 from .engines import make_backend
-from .evaluate import RunRecord
+from .evaluate import RunRecord, peak_memory
 from .fit import Run
 from .loop import LoopState, new_history
 from .recipes import Recipe
@@ -38,33 +37,42 @@ VERSION = 2
 
 
 def _sha(a: np.ndarray) -> str:
-    return hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()
+    return hashlib.sha256(np.ascontiguousarray(a).reshape(-1).view(np.uint8)).hexdigest()      # no copy
 
 
-def _npz_bytes(arrays: dict) -> tuple[bytes, dict]:
-    buf = io.BytesIO()
-    arrays = {k: np.ascontiguousarray(v) for k, v in arrays.items()}
-    np.savez(buf, **arrays)
-    return buf.getvalue(), {k: {"shape": list(v.shape), "dtype": str(v.dtype), "sha256": _sha(v)}
-                            for k, v in arrays.items()}
+def _write_npz(path: Path, arrays: dict) -> dict:
+    """Write ``arrays`` as numpy's ``.npz`` (stored, not compressed) to ``path``, one array at a time, so the archive
+    is never whole in memory; returns each array's shape, dtype and SHA-256 (the manifest's ``arrays`` entry)."""
+    meta = {}
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED, allowZip64=True) as z:
+        for name, value in arrays.items():
+            a = np.ascontiguousarray(value)
+            with z.open(f"{name}.npy", "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, a, allow_pickle=False)
+            meta[name] = {"shape": list(a.shape), "dtype": str(a.dtype), "sha256": _sha(a)}
+    return meta
 
 
 def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -> Path:
-    """Write ``run``'s checkpoint into ``folder`` (a staged output folder; files are atomic)."""
+    """Write ``run``'s checkpoint into ``folder`` (a staged output folder; files are atomic). Where ``metrics`` holds
+    a ``peak_memory``, it is raised to the process's peak once the arrays are written (writing them holds copies of
+    the weights and Adam's moments), in the dict the caller passed as well."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     be = run.backend
+    arrays = {"weights.npz": _write_npz(folder / "weights.npz", be.get_weights())}
     state = {f"optimizer.{k}": v for k, v in be.optimizer_state().items()}
     if run.snapshot is not None:
         state.update({f"best.{k}": v for k, v in run.snapshot.items()})
-    files = {"weights.npz": _npz_bytes(be.get_weights()), "state.npz": _npz_bytes(state)}
-    for name, (data, _) in files.items():
-        (folder / name).write_bytes(data)
+    arrays["state.npz"] = _write_npz(folder / "state.npz", state)
+    del state
+    if metrics is not None and "peak_memory" in metrics:
+        metrics["peak_memory"] = max(metrics["peak_memory"], peak_memory())
     manifest = {"format": FORMAT, "version": VERSION, "field": run.recipe.model.field, "dim": be.dim,
                 "backend": be.name, "recipe": run.recipe.to_dict(), "bound": be.bound, "near": be.near,
                 "far": be.far, "dataset": run.dataset_meta,
                 "loop": {"step": run.state.step, "train_time": run.state.train_time}, "best": run.best,
-                "metrics": metrics or {}, "arrays": {name: meta for name, (_, meta) in files.items()}}
+                "metrics": metrics or {}, "arrays": arrays}
     atomic_write_text(folder / "history.json", json_text(run.state.history, indent=None))
     atomic_write_text(folder / "manifest.json", json_text(manifest))
     return folder
@@ -74,6 +82,8 @@ def write_fit(run: Run, folder: Path, record: RunRecord | None = None, dataset: 
     """Write ``run`` into ``folder``; with ``record`` and ``dataset`` also the metrics and figures."""
     metrics = record.row() if record is not None else {"interrupted_at": run.state.step}
     save_checkpoint(run, folder, metrics)
+    if record is not None:
+        record.peak_memory = metrics["peak_memory"]         # the checkpoint's writing counted
     atomic_write_text(folder / "metrics.json", json_text({**metrics, "notes": run.notes}))
     if record is not None and dataset is not None and record.renders is not None:
         title = f"{dataset.name}, {run.recipe.name} ({run.backend.name})"

@@ -222,5 +222,10 @@ def evaluate(backend, dataset: Dataset, split: str = "test", *, geometry_metrics
             for k, v in geometry(backend, dataset, backend.bound).items():
                 setattr(rec, k, v)
     rec.eval_time = time.perf_counter() - t0
-    rec.peak_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20      # KiB on Linux
+    rec.peak_memory = peak_memory()
     return rec
+
+
+def peak_memory() -> float:
+    """The process's peak resident memory so far, GiB."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20      # KiB on Linux

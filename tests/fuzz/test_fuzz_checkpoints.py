@@ -154,12 +154,11 @@ def array_edit(data, ck: Path, m: dict) -> tuple[str, callable]:
         arrays[name] = a.astype(str) if consistent else a.astype(np.float64 if a.dtype != np.float64 else np.float32)
 
     def fn():
-        raw = npz_bytes(**arrays)
-        (ck / f).write_bytes(raw)
+        (ck / f).write_bytes(npz_bytes(**arrays))
         if consistent:
-            from mitnerf.train.checkpoint import _npz_bytes
+            from mitnerf.train.checkpoint import _write_npz
 
-            listed[f] = _npz_bytes(arrays)[1]
+            listed[f] = _write_npz(ck / f, arrays)
             edit_json(ck / "manifest.json", lambda o: o.__setitem__("arrays", listed))
     return f"{f} {name}: {what}{' (manifest updated)' if consistent else ''}", fn
 
