@@ -7,10 +7,12 @@ test views), fitted by the plain command line as a user runs it, each part in a 
 every other setting the defaults (the white background, all 200 test views). Each part records in
 ``results.json`` (``lego/600``, ``lego/3600``) the test PSNR and SSIM over the 200 views, the steps, the
 evaluation's time and the process's peak memory, read from the run's ``metrics.json``, with the command and the
-machine. ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and
+machine. Part ``800`` (``lego800/upsampled``) fits the same views upsampled twice (nearest, into a temporary
+folder) for :data:`BUDGET_800` seconds: the original 800 x 800 lego's pixel count, so its peak memory and the
+evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure). ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and
 the peer on this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 3600] [--data ../shared/data/nerf_synthetic/lego_400]
+    python benchmarks/lego.py [--parts 600 3600 800] [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import tempfile
 from pathlib import Path
 
 if __package__:                        # imported as benchmarks.lego (the tests)
@@ -26,7 +29,9 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "3600")
+PARTS = ("600", "3600", "800")
+BUDGET_800 = "150"
+"""Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -37,9 +42,23 @@ ANCHORS = [
 """Published test PSNR on lego, 800 x 800, white background, the 200 test views: (method, dB, training time, GPU)."""
 
 
-def fit(data: Path, budget: str) -> dict:
+def upsampled(data: Path, folder: Path) -> Path:
+    """The Blender folder ``data`` with every view twice as large (each pixel repeated 2 x 2) in ``folder``."""
+    import imageio.v3 as iio
+    import numpy as np
+    from tqdm.auto import tqdm
+
+    for f in data.glob("transforms_*.json"):
+        (folder / f.name).write_text(f.read_text())
+    for png in tqdm(sorted(data.glob("*/*.png")), desc="upsample", unit="view", delay=1):
+        (folder / png.parent.name).mkdir(exist_ok=True)
+        iio.imwrite(folder / png.parent.name / png.name, np.repeat(np.repeat(iio.imread(png), 2, 0), 2, 1))
+    return folder
+
+
+def fit(data: Path, budget: str, part: str | None = None) -> dict:
     """``mitnerf fit`` with the time budget and nothing else, in a fresh process: its metrics and its own lines."""
-    out = ROOT / "out" / "lego" / budget
+    out = ROOT / "out" / "lego" / (part or budget)
     args = ["fit", "--data", str(data), "--time-budget", budget, "--out", str(out)]
     lines, wall = mitnerf(*args)
     metrics = json.loads((out / "metrics.json").read_text())
@@ -64,7 +83,8 @@ def summary(v: dict) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS), help="which budgets to run (seconds)")
+    p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
+                   help="which parts to run: budgets in seconds, and 800 (memory and evaluation time at 800 x 800)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -74,6 +94,19 @@ def main(argv=None) -> int:
     from mitnerf.train.config import TrainConfig
 
     for budget in args.parts:
+        if budget == "800":
+            (ROOT / "out").mkdir(exist_ok=True)
+            with tempfile.TemporaryDirectory(dir=ROOT / "out") as tmp:
+                run = fit(upsampled(args.data, Path(tmp)), BUDGET_800, "800")
+                command = run["command"].replace(str(Path(tmp).relative_to(ROOT)), "<lego_400 upsampled>")
+            v = values_of(run)
+            line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest): peak memory {v['peak_gib']:.2f} GiB, "
+                    f"evaluation of {v['views']} test views {v['eval_s']:.0f} s, after {v['train_s']:.0f} s of training "
+                    f"({v['steps']} steps); recipe {v['recipe']}")
+            print(f"lego800/upsampled: {line}")
+            record_result("lego800/upsampled", v, line, f"python benchmarks/lego.py --parts 800 (runs: {command})",
+                          recipe=v["recipe"], threads=TrainConfig().threads)
+            continue
         run = fit(args.data, budget)
         v = values_of(run)
         print(f"lego/{budget}: {summary(v)}\n    {run['first']}")

@@ -4,6 +4,7 @@ themselves are measured by running the scripts, never here."""
 from types import SimpleNamespace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mitnerf.results import load_results, record_result
@@ -104,6 +105,43 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     assert "| `lego/600` (grid-3d) | 400 x 400 | 200 | 30.50 | 0.950 | 600 s, 4000 steps |" in table
     assert "| NeRF (published) | 800 x 800 | 200 | 32.54 |" in table
     assert "on 200 views of 400 x 400 over" in entry["summary"]
+
+
+def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, tmp_path, monkeypatch):
+    """Part 800: every view twice as large, each pixel a 2 x 2 block, its transforms files beside them; the record
+    names memory and evaluation time, and its command no temporary folder."""
+    import imageio.v3 as iio
+
+    from benchmarks import lego
+
+    (tmp_path / "train").mkdir()
+    (tmp_path / "transforms_train.json").write_text('{"camera_angle_x": 0.7, "frames": []}')
+    view = np.arange(2 * 3 * 4, dtype=np.uint8).reshape(2, 3, 4)
+    iio.imwrite(tmp_path / "train" / "r_0.png", view)
+    (tmp_path / "big").mkdir()
+    big = lego.upsampled(tmp_path, tmp_path / "big")
+    out = iio.imread(big / "train" / "r_0.png")
+    assert out.shape == (4, 6, 4) and (out[1, 3] == view[0, 1]).all() and (out[3, 5] == view[1, 2]).all()
+    assert (big / "transforms_train.json").read_text() == '{"camera_angle_x": 0.7, "frames": []}'
+    seen = []
+
+    def fake_fit(data, budget, part=None):
+        seen.append((data, budget, part, sorted(p.name for p in data.iterdir())))
+        return {"metrics": {"psnr": 20.0, "ssim": 0.9, "train_time": 150.1, "steps": 900, "eval_time": 110.0,
+                            "peak_memory": 3.5, "views": 200, "background": "white", "recipe": "grid-3d"},
+                "size": "800 x 800", "wall": 400.0, "first": "recipe grid-3d: ...", "last": "",
+                "command": f"python -m mitnerf fit --data {data.relative_to(lego.ROOT)} --time-budget {budget}"}
+
+    monkeypatch.setattr(lego, "fit", fake_fit)
+    assert lego.main(["--data", str(tmp_path), "--parts", "800"]) == 0
+    assert seen[0][1:] == ("150", "800", ["train", "transforms_train.json"])
+    assert not seen[0][0].exists()                                   # the temporary folder is gone
+    entry = load_results()["lego800/upsampled"]
+    assert "peak memory 3.50 GiB, evaluation of 200 test views 110 s" in entry["summary"]
+    assert "<lego_400 upsampled>" in entry["command"] and "tmp" not in entry["command"]
+    from benchmarks import report
+
+    assert "lego800" not in report.lego_table(load_results())           # no PSNR row of blocky views
 
 
 def test_nerfacto_scores_its_renders_with_mitnerfs_metrics_and_records_them(results, monkeypatch, tmp_path):

@@ -107,6 +107,11 @@ class Backend(ABC):
     def step(self, index: int, seed: int, lr: float):
         """Optimisation step ``index`` with batch/jitter ``seed``; returns a handle for :meth:`read`."""
 
+    def release(self) -> None:
+        """Give back the memory the engine keeps cached for the training steps (their gradients and temporaries), so
+        that what follows (evaluation, writing) does not stack its own on top: :func:`~.fit.fit` calls it when the
+        training ends, and a later :meth:`step` allocates again."""
+
     @abstractmethod
     def read(self, handle) -> tuple[float, str | None]:
         """The loss of a step, and the name of a quantity that became NaN or infinite (or None)."""
@@ -129,7 +134,8 @@ class Backend(ABC):
 
     @abstractmethod
     def optimizer_state(self) -> dict[str, np.ndarray]:
-        """Adam's moments and step counts (engine-specific names; for resuming in the same engine)."""
+        """Adam's moments and step counts (engine-specific names; for resuming in the same engine), for a checkpoint
+        to write at once: the moments may be views of the engine's own arrays, which the next step replaces."""
 
     @abstractmethod
     def load_optimizer_state(self, arrays: dict[str, np.ndarray]) -> None:

@@ -123,6 +123,10 @@ class DrJitBackend(Backend):
         return self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
                             occ.lookup if occ is not None else None)
 
+    def release(self) -> None:
+        dr.sync_thread()
+        dr.flush_malloc_cache()
+
     def read(self, handle) -> tuple[float, str | None]:
         """The loss of a step, and the first parameter that is not finite, looked for in every
         :data:`CHECK_EVERY`-th read (a pass over all of them) and wherever the loss is not finite."""
@@ -161,7 +165,8 @@ class DrJitBackend(Backend):
         out = {}
         for k, (_, _, _, (t, m, v, _)) in self.opt.state.items():
             out[f"{k}.t"] = np.array(t, np.uint32).reshape(-1)
-            out[f"{k}.m"], out[f"{k}.v"] = np.array(m, np.float32), np.array(v, np.float32)
+            dr.eval(m, v)
+            out[f"{k}.m"], out[f"{k}.v"] = np.asarray(m), np.asarray(v)          # views, not copies
         return out
 
     def load_optimizer_state(self, arrays: dict[str, np.ndarray]) -> None:
