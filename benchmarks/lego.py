@@ -9,8 +9,9 @@ every other setting the defaults (the white background, all 200 test views). Eac
 evaluation's time and the process's peak memory, read from the run's ``metrics.json``, with the command and the
 machine. Part ``800`` (``lego800/upsampled``) fits the same views upsampled twice (nearest, into a temporary
 folder) for :data:`BUDGET_800` seconds: the original 800 x 800 lego's pixel count, so its peak memory and the
-evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure). ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and
-the peer on this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
+evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure).
+``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
+this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
     python benchmarks/lego.py [--parts 600 3600 800] [--data ../shared/data/nerf_synthetic/lego_400]
 """
@@ -100,9 +101,9 @@ def main(argv=None) -> int:
                 run = fit(upsampled(args.data, Path(tmp)), BUDGET_800, "800")
                 command = run["command"].replace(str(Path(tmp).relative_to(ROOT)), "<lego_400 upsampled>")
             v = values_of(run)
-            line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest): peak memory {v['peak_gib']:.2f} GiB, "
-                    f"evaluation of {v['views']} test views {v['eval_s']:.0f} s, after {v['train_s']:.0f} s of training "
-                    f"({v['steps']} steps); recipe {v['recipe']}")
+            line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest): peak memory {v['peak_gib']:.2f} "
+                    f"GiB, evaluation of {v['views']} test views {v['eval_s']:.0f} s, after {v['train_s']:.0f} s of "
+                    f"training ({v['steps']} steps); recipe {v['recipe']}")
             print(f"lego800/upsampled: {line}")
             record_result("lego800/upsampled", v, line, f"python benchmarks/lego.py --parts 800 (runs: {command})",
                           recipe=v["recipe"], threads=TrainConfig().threads)

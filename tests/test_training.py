@@ -59,8 +59,8 @@ def test_engines_agree_step_by_step(bunny_small, family, option):
 
 
 def test_training_goes_on_as_before_after_the_engine_gives_back_its_memory(bunny_small):
-    """``release()`` between steps (as fit calls it when training ends, before a resumed run's next step) changes no
-    loss: one thread, so the sums are deterministic, and a frozen step that allocates again."""
+    """``release()`` between steps (fit calls it when training ends; a step after it allocates again) changes no
+    loss: one thread, so the sums are deterministic."""
     recipe = small("grid-2d", threads=1)
     ds = bunny_small
     curves = []

@@ -55,8 +55,8 @@ def _write_npz(path: Path, arrays: dict) -> dict:
 
 def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -> Path:
     """Write ``run``'s checkpoint into ``folder`` (a staged output folder; files are atomic). Where ``metrics`` holds
-    a ``peak_memory``, it is raised to the process's peak once the arrays are written (writing them holds copies of
-    the weights and Adam's moments), in the dict the caller passed as well."""
+    a ``peak_memory``, it is raised to the process's peak once the arrays are written (writing them holds a copy of
+    the weights), in the dict the caller passed as well."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     be = run.backend
@@ -67,7 +67,7 @@ def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -
     arrays["state.npz"] = _write_npz(folder / "state.npz", state)
     del state
     if metrics is not None and "peak_memory" in metrics:
-        metrics["peak_memory"] = max(metrics["peak_memory"], peak_memory())
+        metrics["peak_memory"] = max(peak_memory(), metrics["peak_memory"])      # a NaN (no record) gives way
     manifest = {"format": FORMAT, "version": VERSION, "field": run.recipe.model.field, "dim": be.dim,
                 "backend": be.name, "recipe": run.recipe.to_dict(), "bound": be.bound, "near": be.near,
                 "far": be.far, "dataset": run.dataset_meta,

@@ -61,7 +61,8 @@ class RunRecord:
     split_views: int = 0
     """Views in the test split."""
     peak_memory: float = math.nan
-    """GiB: the process's peak resident memory when the evaluation ended (loading, training and evaluating)."""
+    """GiB: the process's peak resident memory when the evaluation ended (loading, training and evaluating); raised
+    to the peak at the end of the checkpoint's writing where the run is written (:func:`~.checkpoint.write_fit`)."""
     params: int = 0
     """Trainable parameters of the model."""
     recipe: str = ""

@@ -135,7 +135,8 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
                         f"(validation {run.best['val_psnr']:.2f} dB)",)
         exc.run = run
         raise
-    be.release()
+    finally:
+        be.release()             # the training's cached memory, before evaluating and writing
     last = run.state.history["val_psnr"][-1] if val is not None else None
     if cfg.keep_best and run.best and last is not None and run.best["step"] != run.state.step \
             and keeps_best(run.best["val_psnr"], last, cfg.keep_best_margin):

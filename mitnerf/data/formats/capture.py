@@ -120,10 +120,11 @@ def read_views(paths: list[Path], downscale: int, where: str, masks: list[Path] 
                size: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Views of one size as ``(colour [n, h, w, 3] premultiplied by alpha, alpha [n, h, w])`` float32, box-filtered
     by ``downscale`` (views one pixel wide, 2D, along their rows only): the image's own alpha, or ``masks`` (grey,
-    1 = the object) when given. Where every view is 8-bit values as read (no box filter, no mask that is not 8-bit),
-    they come back as :class:`~mitnerf.data.dataset.Split` holds them, straight colour and coverage in uint8, one
-    view at a time, so no float copy of the split is ever whole. Sizes and the memory of the result are checked from
-    the headers first (:func:`~.common.view_size`), unless the caller did and gives their ``size`` ``(H, W)``."""
+    1 = the object) when given. Where every view's values are 8-bit ones (8-bit files read as they are: a box
+    filter or a 16-bit file mostly gives values between them), they come back as :class:`~mitnerf.data.dataset.Split`
+    holds them, straight colour and coverage in uint8, made a view at a time: no float copy of the split is whole.
+    Sizes and the memory of the result are checked from the headers first (:func:`~.common.view_size`), unless the
+    caller did and gives their ``size`` ``(H, W)``."""
     H, W = size or view_size(paths, where, downscale)
     cols = 1 if W == 1 else downscale                  # a 2D view keeps its one column
     h, w = H // downscale, W // cols
