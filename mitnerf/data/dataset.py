@@ -82,9 +82,14 @@ class Split:
             raise MitnerfError("8-bit colour needs 8-bit coverage beside it (and float colour float coverage)")
         self._color, self._alpha = color, alpha
         if color.dtype != np.uint8 and linear is None:        # 8-bit images, read as floats: keep the 8 bits
-            parts = [eight_bit(c, a) for c, a in zip(color, alpha)]
-            if parts and all(p is not None for p in parts):
-                self._color, self._alpha = np.stack([p[0] for p in parts]), np.stack([p[1] for p in parts])
+            parts = []
+            for c, a in zip(color, alpha):              # up to the first view that is not 8 bits
+                if (p := eight_bit(c, a)) is None:
+                    break
+                parts.append(p)
+            else:
+                if parts:
+                    self._color, self._alpha = np.stack([p[0] for p in parts]), np.stack([p[1] for p in parts])
         self._extents: dict = {}
         """Solid extents already carved, by ``(reach, margin)`` (a fit --auto search fits the split many times)."""
 
