@@ -72,13 +72,14 @@ def fit(data: Path, budget: str, part: str | None = None) -> dict:
 def values_of(run: dict) -> dict:
     m = run["metrics"]
     return {"size": run["size"], "psnr": m["psnr"], "ssim": m["ssim"], "train_s": m["train_time"],
-            "steps": m["steps"], "eval_s": m["eval_time"], "peak_gib": m["peak_memory"], "views": m["views"],
+            "steps": m["steps"], "eval_s": m["eval_time"], "render_s": m["render_time"] * m["views"], "peak_gib": m["peak_memory"], "views": m["views"],
             "background": m["background"], "recipe": m["recipe"], "wall_s": run["wall"]}
 
 
 def summary(v: dict) -> str:
     return (f"test PSNR {v['psnr']:.2f} dB, SSIM {v['ssim']:.3f} on {v['views']} views of {v['size']} over "
-            f"{v['background']}; {v['steps']} steps in {v['train_s']:.0f} s; evaluation {v['eval_s']:.0f} s; "
+            f"{v['background']}; {v['steps']} steps in {v['train_s']:.0f} s; evaluation {v['eval_s']:.0f} s "
+            f"(rendering {v['render_s']:.0f} s); "
             f"peak memory {v['peak_gib']:.2f} GiB; recipe {v['recipe']}")
 
 
@@ -102,7 +103,7 @@ def main(argv=None) -> int:
                 command = run["command"].replace(str(Path(tmp).relative_to(ROOT)), "<lego_400 upsampled>")
             v = values_of(run)
             line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest): peak memory {v['peak_gib']:.2f} "
-                    f"GiB, evaluation of {v['views']} test views {v['eval_s']:.0f} s, after {v['train_s']:.0f} s of "
+                    f"GiB, evaluation of {v['views']} test views {v['eval_s']:.0f} s (rendering {v['render_s']:.0f} s), after {v['train_s']:.0f} s of "
                     f"training ({v['steps']} steps); recipe {v['recipe']}")
             print(f"lego800/upsampled: {line}")
             record_result("lego800/upsampled", v, line, f"python benchmarks/lego.py --parts 800 (runs: {command})",

@@ -90,7 +90,7 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     assert load_results() == {}
     (tmp_path / "transforms_train.json").write_text("{}")
     metrics = {"psnr": 30.5, "ssim": 0.95, "train_time": 600.2, "steps": 4000, "eval_time": 41.0, "peak_memory": 1.5,
-               "views": 200, "background": "white", "recipe": "grid-3d"}
+               "render_time": 0.1, "views": 200, "background": "white", "recipe": "grid-3d"}
     monkeypatch.setattr(lego, "fit", lambda data, budget: {
         "metrics": dict(metrics, train_time=float(budget)), "size": "400 x 400", "wall": 700.0,
         "first": "recipe grid-3d: ...",
@@ -105,6 +105,7 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     assert "| `lego/600` (grid-3d) | 400 x 400 | 200 | 30.50 | 0.950 | 600 s, 4000 steps |" in table
     assert "| NeRF (published) | 800 x 800 | 200 | 32.54 |" in table
     assert "on 200 views of 400 x 400 over" in entry["summary"]
+    assert "evaluation 41 s (rendering 20 s)" in entry["summary"]             # 0.1 s a view, 200 views
 
 
 def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, tmp_path, monkeypatch):
@@ -128,7 +129,7 @@ def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, 
     def fake_fit(data, budget, part=None):
         seen.append((data, budget, part, sorted(p.name for p in data.iterdir())))
         return {"metrics": {"psnr": 20.0, "ssim": 0.9, "train_time": 150.1, "steps": 900, "eval_time": 110.0,
-                            "peak_memory": 3.5, "views": 200, "background": "white", "recipe": "grid-3d"},
+                            "render_time": 0.45, "peak_memory": 3.5, "views": 200, "background": "white", "recipe": "grid-3d"},
                 "size": "800 x 800", "wall": 400.0, "first": "recipe grid-3d: ...", "last": "",
                 "command": f"python -m mitnerf fit --data {data.relative_to(lego.ROOT)} --time-budget {budget}"}
 
@@ -137,7 +138,7 @@ def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, 
     assert seen[0][1:] == ("150", "800", ["train", "transforms_train.json"])
     assert not seen[0][0].exists()                                   # the temporary folder is gone
     entry = load_results()["lego800/upsampled"]
-    assert "peak memory 3.50 GiB, evaluation of 200 test views 110 s" in entry["summary"]
+    assert "peak memory 3.50 GiB, evaluation of 200 test views 110 s (rendering 90 s)" in entry["summary"]
     assert "<lego_400 upsampled>" in entry["command"] and "tmp" not in entry["command"]
     from benchmarks import report
 

@@ -37,16 +37,18 @@ capture that cannot be read at its own size is refused with the fix (``--downsca
 def read_views(path: str, downscale: int | None) -> tuple:
     """``(dataset, what to say)``: the dataset at ``path``, ``downscale`` times smaller; None: as it is, or as many
     times smaller as it takes to keep its training pixels under :data:`MAX_TRAIN_PIXELS` (read again so; the line
-    that says so, else None)."""
+    that says so, else None). The views it is not trained on are held packed (:meth:`Dataset.packed`)."""
     dataset = load_dataset(path, downscale or 1)
     train = dataset["train"] if "train" in dataset.splits else None
     pixels = 0 if train is None else len(train) * train.cameras.height * train.cameras.width
     if downscale is not None or pixels <= MAX_TRAIN_PIXELS:
-        return dataset, None
-    k = math.ceil(math.sqrt(pixels / MAX_TRAIN_PIXELS))
-    smaller = load_dataset(path, int(dataset.meta.get("downscale", 1)) * k)
+        return dataset.packed(), None
+    k, n = math.ceil(math.sqrt(pixels / MAX_TRAIN_PIXELS)), len(train)
+    scale = int(dataset.meta.get("downscale", 1)) * k
+    del dataset, train                                  # not held while the smaller views are read
+    smaller = load_dataset(path, scale).packed()
     c = smaller["train"].cameras
-    return smaller, (f"views: read {k} times smaller, {c.width} x {c.height} (the {len(train)} training views hold "
+    return smaller, (f"views: read {k} times smaller, {c.width} x {c.height} (the {n} training views hold "
                      f"{pixels:,} pixels; --downscale 1 keeps them all)")
 
 
@@ -116,7 +118,7 @@ def run_fit(args) -> int:
         evaluated = "psnr" in read_manifest(cmd.resume).get("metrics", {})
         recipe, backend, out_path = extended(prior.recipe, resume["state"], overrides(args), cmd.resume,
                                              evaluated), prior.backend.name, Path(cmd.resume)
-        dataset = load_dataset(data, int(prior.dataset_meta.get("downscale", 1)))
+        dataset = load_dataset(data, int(prior.dataset_meta.get("downscale", 1))).packed()
     else:
         if not cmd.data:
             raise ConfigError("pass --data DIR (a dataset folder), or --resume RUN")

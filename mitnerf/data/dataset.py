@@ -17,6 +17,7 @@ from ..errors import MitnerfError
 from .cameras import Cameras
 from .carve import pixel_of, solid_extent
 from .color import display_color
+from .packed import Packed
 from .rays import TrainingRays
 
 SPLITS = ("train", "val", "test")
@@ -58,12 +59,14 @@ def decode(rgb8: np.ndarray, a8: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class Split:
     """The views of one split, all arrays ``[n, H, W, ...]``. Colour and coverage read from 8-bit images are held
     as those 8 bits (a quarter of float32's memory) and decoded where they are used: per batch of training rays
-    (:meth:`pixels`), per view when evaluating (:meth:`target`)."""
+    (:meth:`pixels`), per view when evaluating (:meth:`target`). A split that is only rendered against (validation
+    and test views) can be held packed (:meth:`packed`): compressed, unpacked a few views at a time."""
 
-    def __init__(self, cameras: Cameras, color: np.ndarray, alpha: np.ndarray, depth: np.ndarray | None = None,
-                 mask: np.ndarray | None = None, linear: np.ndarray | None = None):
+    def __init__(self, cameras: Cameras, color: np.ndarray | Packed, alpha: np.ndarray | None,
+                 depth: np.ndarray | None = None, mask: np.ndarray | None = None, linear: np.ndarray | None = None):
         """``color``: display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32 ``[n, H, W, 3]``,
-        or an 8-bit image's straight colour (uint8, with ``alpha`` uint8 too: held as given);
+        or an 8-bit image's straight colour (uint8, with ``alpha`` uint8 too: held as given), or both packed
+        (:class:`~.packed.Packed`, with ``alpha`` None);
         ``alpha``: coverage in [0, 1], ``[n, H, W]`` (all ones when a format has none); ``depth``: distance along
         each pixel-centre ray, ``inf`` on a miss (None: unknown); ``mask``: whether the pixel-centre ray hits the
         object (None: unknown); ``linear``: exact linear RGB over black (datasets rendered here)."""
@@ -78,10 +81,12 @@ class Split:
             arr = getattr(self, name)
             if arr is not None and arr.shape != (n, H, W):
                 raise MitnerfError(f"{name} maps have shape {arr.shape[1:]}, expected {(H, W)} for {n} frames")
-        if (color.dtype == np.uint8) != (alpha.dtype == np.uint8):
+        if isinstance(color, Packed) != (alpha is None):
+            raise MitnerfError("packed views hold their coverage: pass alpha=None with them (and alpha without)")
+        if alpha is not None and (color.dtype == np.uint8) != (alpha.dtype == np.uint8):
             raise MitnerfError("8-bit colour needs 8-bit coverage beside it (and float colour float coverage)")
         self._color, self._alpha = color, alpha
-        if color.dtype != np.uint8 and linear is None:        # 8-bit images, read as floats: keep the 8 bits
+        if alpha is not None and color.dtype != np.uint8 and linear is None:        # 8-bit images, read as floats: keep the 8 bits
             parts = []
             for c, a in zip(color, alpha):              # up to the first view that is not 8 bits
                 if (p := eight_bit(c, a)) is None:
@@ -95,33 +100,55 @@ class Split:
 
     @property
     def eight_bit(self) -> bool:
-        """Whether colour and coverage are held as 8-bit values."""
-        return self._color.dtype == np.uint8
+        """Whether colour and coverage are held as 8-bit values (packed or not)."""
+        return isinstance(self._color, Packed) or self._color.dtype == np.uint8
+
+    @property
+    def is_packed(self) -> bool:
+        """Whether the views are held packed (:meth:`packed`)."""
+        return isinstance(self._color, Packed)
+
+    def _views(self, pick=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """Colour and coverage of the views ``pick`` as held (8-bit straight, or float32 premultiplied), unpacked."""
+        return self._color.take(pick) if self.is_packed else (self._color[pick], self._alpha[pick])
 
     @property
     def color(self) -> np.ndarray:
         """Display-space (sRGB) colour premultiplied by ``alpha`` (over black), float32, ``[n, H, W, 3]`` (decoded
         for all views at once when held in 8 bits: per batch or per view, use :meth:`pixels` or :meth:`target`)."""
-        return decode(self._color, self._alpha)[0] if self.eight_bit else self._color
+        c, a = self._views()
+        return decode(c, a)[0] if self.eight_bit else c
 
     @property
     def alpha(self) -> np.ndarray:
         """Coverage in [0, 1], float32 ``[n, H, W]``."""
-        return self._alpha.astype(np.float32) / 255.0 if self.eight_bit else self._alpha
+        a = self._views()[1]
+        return a.astype(np.float32) / 255.0 if self.eight_bit else a
 
     @property
     def has_alpha(self) -> bool:
         """Whether coverage tells empty pixels (a format without alpha has it all ones)."""
+        if self.is_packed:
+            return bool(len(self) and self._color.alpha_min.min() < 255)
         return bool(self._alpha.min() < (255 if self.eight_bit else 1.0))
+
+    def packed(self) -> "Split":
+        """This split with its views packed (:class:`~.packed.Packed`: compressed, a fraction of the memory) where
+        they are 8-bit ones, else itself. For the splits a fit renders against: :meth:`target` and :meth:`subset`
+        unpack only the views they are asked for, while a packed training split would unpack whole per batch."""
+        if self.is_packed or not self.eight_bit:
+            return self
+        return Split(self.cameras, Packed.of(self._color, self._alpha), None, self.depth, self.mask, self.linear)
 
     def covered(self, index: np.ndarray) -> np.ndarray:
         """Whether the pixels at flat indices ``index`` have any coverage (alpha > 0)."""
-        return self._alpha.reshape(-1)[index] > 0
+        return self._views()[1].reshape(-1)[index] > 0
 
     def pixels(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Premultiplied colour ``[m, 3]`` and coverage ``[m]`` (float32) of the pixels at flat indices ``index``
-        (``[m]`` into ``[n * H * W]``)."""
-        c, a = self._color.reshape(-1, 3)[index], self._alpha.reshape(-1)[index]
+        (``[m]`` into ``[n * H * W]``; a packed split is unpacked whole for it)."""
+        c, a = self._views()
+        c, a = c.reshape(-1, 3)[index], a.reshape(-1)[index]
         return decode(c, a) if self.eight_bit else (c, a)
 
     @classmethod
@@ -140,12 +167,13 @@ class Split:
         cat = lambda name: (None if getattr(parts[0], name) is None
                             else np.concatenate([getattr(p, name) for p in parts]))
         cams = Cameras.concatenate([p.cameras for p in parts])
-        return cls(cams, cat("_color"), cat("_alpha"), cat("depth"), cat("mask"), cat("linear"))
+        views = [p._views() for p in parts]
+        color, alpha = (np.concatenate([v[k] for v in views]) for k in (0, 1))
+        return cls(cams, color, alpha, cat("depth"), cat("mask"), cat("linear"))
 
     def target(self, background=(0.0, 0.0, 0.0), views=None) -> np.ndarray:
         """Colour composited over ``background`` (display space), ``[n, H, W, 3]``; ``views``: only these."""
-        pick = slice(None) if views is None else views
-        c, a = self._color[pick], self._alpha[pick]
+        c, a = self._views(slice(None) if views is None else views)
         c, a = decode(c, a) if self.eight_bit else (c, a)
         return c + (1.0 - a[..., None]) * np.asarray(background, np.float32)
 
@@ -179,8 +207,8 @@ class Split:
 
     def subset(self, index) -> "Split":
         pick = lambda a: None if a is None else a[index]
-        return Split(self.cameras.subset(index), self._color[index], self._alpha[index],
-                     pick(self.depth), pick(self.mask), pick(self.linear))
+        color, alpha = (self._color.subset(index), None) if self.is_packed else (self._color[index], self._alpha[index])
+        return Split(self.cameras.subset(index), color, alpha, pick(self.depth), pick(self.mask), pick(self.linear))
 
 
 @dataclass
@@ -243,6 +271,12 @@ class Dataset:
     @property
     def background(self) -> tuple[float, float, float]:
         return tuple(self.meta.get("background", (0.0, 0.0, 0.0) if self.dim == 2 else (1.0, 1.0, 1.0)))
+
+    def packed(self) -> "Dataset":
+        """This dataset with every split but ``train`` packed (:meth:`Split.packed`): what ``mitnerf fit`` holds,
+        since it only renders against the validation and test views, a few at a time."""
+        return Dataset({k: s if k == "train" else s.packed() for k, s in self.splits.items()}, self.near, self.far,
+                       dict(self.meta))
 
     def sparse(self, train_index=None) -> "Dataset":
         """The training views ``train_index`` (all if None) and the test split, no validation split (so the
