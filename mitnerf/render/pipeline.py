@@ -180,6 +180,8 @@ class Model(FieldSet):
                 result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
             result["samples"] = sampler.points(n, near, far)
+            if space.warped:                    # the distortion loss's coordinate (Space.unit_spacing)
+                result["spacing"] = space.unit_spacing(*result["samples"], near, far, dr.select)
         return result
 
 

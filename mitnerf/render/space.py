@@ -100,6 +100,17 @@ class Space:
         """Distance along a ray where samples turn from linear to linear in disparity (None: linear throughout)."""
         return self.frame["knee"] if self.warped else None
 
+    def unit_spacing(self, t, delta, near, far, select) -> tuple:
+        """Samples' ``t`` and ``delta`` (world distances, any engine's arrays) in the spacing coordinate
+        (:func:`to_s`) normalised to [0, 1] over ``[near, far]``: where mip-NeRF 360 takes its distortion loss. A
+        warped scene's world units are whatever its poses' were (COLMAP's scale), so a loss in them would weigh
+        differently on every capture; ``select``: ``dr.select`` or ``torch.where``."""
+        k = self.knee
+        lo, hi = (to_s(v, k, select) for v in (near, far))
+        s0, s1 = to_s(t, k, select), to_s(t + delta, k, select)
+        scale = 1.0 / (hi - lo)
+        return (s0 - lo) * scale, (s1 - s0) * scale
+
     def warp(self, x: list, d: list, ops: Ops) -> tuple[list, object]:
         """World points and directions (3 components each) -> the field's points and the density stretch."""
         m = self.frame["matrix"]

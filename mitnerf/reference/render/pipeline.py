@@ -58,4 +58,8 @@ class Model(nn.Module, FieldSet):
             result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
             result["samples"] = sampler.points(n, near, far)
+            if space.warped:                    # the distortion loss's coordinate (Space.unit_spacing)
+                t = result["samples"][0]
+                result["spacing"] = space.unit_spacing(*result["samples"], torch.as_tensor(near, dtype=t.dtype),
+                                                       torch.as_tensor(far, dtype=t.dtype), torch.where)
         return result
