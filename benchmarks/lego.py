@@ -72,8 +72,9 @@ def fit(data: Path, budget: str, part: str | None = None) -> dict:
 def values_of(run: dict) -> dict:
     m = run["metrics"]
     return {"size": run["size"], "psnr": m["psnr"], "ssim": m["ssim"], "train_s": m["train_time"],
-            "steps": m["steps"], "eval_s": m["eval_time"], "render_s": m["render_time"] * m["views"], "peak_gib": m["peak_memory"], "views": m["views"],
-            "background": m["background"], "recipe": m["recipe"], "wall_s": run["wall"]}
+            "steps": m["steps"], "eval_s": m["eval_time"], "render_s": m["render_time"] * m["views"],
+            "peak_gib": m["peak_memory"], "views": m["views"], "background": m["background"], "recipe": m["recipe"],
+            "wall_s": run["wall"]}
 
 
 def summary(v: dict) -> str:
@@ -103,8 +104,9 @@ def main(argv=None) -> int:
                 command = run["command"].replace(str(Path(tmp).relative_to(ROOT)), "<lego_400 upsampled>")
             v = values_of(run)
             line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest): peak memory {v['peak_gib']:.2f} "
-                    f"GiB, evaluation of {v['views']} test views {v['eval_s']:.0f} s (rendering {v['render_s']:.0f} s), after {v['train_s']:.0f} s of "
-                    f"training ({v['steps']} steps); recipe {v['recipe']}")
+                    f"GiB, evaluation of {v['views']} test views {v['eval_s']:.0f} s (rendering "
+                    f"{v['render_s']:.0f} s), after {v['train_s']:.0f} s of training ({v['steps']} steps); "
+                    f"recipe {v['recipe']}")
             print(f"lego800/upsampled: {line}")
             record_result("lego800/upsampled", v, line, f"python benchmarks/lego.py --parts 800 (runs: {command})",
                           recipe=v["recipe"], threads=TrainConfig().threads)

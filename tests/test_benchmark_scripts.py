@@ -129,7 +129,8 @@ def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, 
     def fake_fit(data, budget, part=None):
         seen.append((data, budget, part, sorted(p.name for p in data.iterdir())))
         return {"metrics": {"psnr": 20.0, "ssim": 0.9, "train_time": 150.1, "steps": 900, "eval_time": 110.0,
-                            "render_time": 0.45, "peak_memory": 3.5, "views": 200, "background": "white", "recipe": "grid-3d"},
+                            "render_time": 0.45, "peak_memory": 3.5, "views": 200, "background": "white",
+                            "recipe": "grid-3d"},
                 "size": "800 x 800", "wall": 400.0, "first": "recipe grid-3d: ...", "last": "",
                 "command": f"python -m mitnerf fit --data {data.relative_to(lego.ROOT)} --time-budget {budget}"}
 

@@ -24,6 +24,13 @@ def test_ssim_of_flat_views_by_hand():
         (1 + 1e-4) / (1.25 + 1e-4), abs=1e-6)
 
 
+def test_ssim_refuses_views_narrower_than_its_smallest_window():
+    from mitnerf.errors import MitnerfError
+
+    with pytest.raises(MitnerfError, match="at least 3 pixels along each axis"):
+        ssim(np.zeros((1, 2, 8, 3), np.float32), np.zeros((1, 2, 8, 3), np.float32))
+
+
 @pytest.mark.parametrize("shape", [(2, 40, 30, 3), (1, 5, 6, 3), (1, 25, 1, 3)])
 def test_ssim_is_scikit_images(shape):
     """Noisy renders of random views, 2D views of 7 pixels and more, of fewer (a smaller window) and 1D views: the

@@ -58,6 +58,23 @@ def test_engines_agree_step_by_step(bunny_small, family, option):
     assert curves[0][-1] < curves[0][0]
 
 
+@pytest.mark.parametrize("scene", ["forward", "unbounded"])
+def test_engines_agree_step_by_step_in_a_warped_scene(vase_small, scene):
+    """NDC and the contraction with the distortion loss, which both engines take along the unit spacing coordinate
+    (``Space.unit_spacing``): the loss curves coincide."""
+    from mitnerf.train.fit import settle_scene
+
+    recipe = small("grid-3d", distortion_weight=0.05, opacity_weight=0.01, free_space_weight=0.0, solid_weight=0.0,
+                   **{"occupancy.enabled": False})
+    recipe.model.render.scene = scene
+    bound, near, far = settle_scene(recipe, vase_small)
+    bes = [make_backend(b, recipe.model, recipe.train, 3, bound, near, far) for b in ("drjit", "torch")]
+    for be in bes:
+        be.set_data(vase_small["train"].rays((1, 1, 1), **recipe.train.ray_args()))
+    curves = [[be.read(be.step(k, step_seed(0, k), 0.02))[0] for k in range(8)] for be in bes]
+    np.testing.assert_allclose(curves[0], curves[1], rtol=3e-3)
+
+
 def test_training_goes_on_as_before_after_the_engine_gives_back_its_memory(bunny_small):
     """``release()`` between steps (fit calls it when training ends; a step after it allocates again) changes no
     loss: one thread, so the sums are deterministic."""

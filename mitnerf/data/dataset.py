@@ -86,7 +86,7 @@ class Split:
         if alpha is not None and (color.dtype == np.uint8) != (alpha.dtype == np.uint8):
             raise MitnerfError("8-bit colour needs 8-bit coverage beside it (and float colour float coverage)")
         self._color, self._alpha = color, alpha
-        if alpha is not None and color.dtype != np.uint8 and linear is None:        # 8-bit images, read as floats: keep the 8 bits
+        if alpha is not None and color.dtype != np.uint8 and linear is None:    # 8-bit views read as floats: 8 bits
             parts = []
             for c, a in zip(color, alpha):              # up to the first view that is not 8 bits
                 if (p := eight_bit(c, a)) is None:
@@ -134,14 +134,22 @@ class Split:
 
     def packed(self) -> "Split":
         """This split with its views packed (:class:`~.packed.Packed`: compressed, a fraction of the memory) where
-        they are 8-bit ones, else itself. For the splits a fit renders against: :meth:`target` and :meth:`subset`
-        unpack only the views they are asked for, while a packed training split would unpack whole per batch."""
+        they are 8-bit ones, else itself. For the splits a fit renders against: :meth:`target` unpacks only the views
+        it is asked for and :meth:`subset` keeps the chosen views packed; :meth:`rays` unpacks the split once."""
         if self.is_packed or not self.eight_bit:
             return self
         return Split(self.cameras, Packed.of(self._color, self._alpha), None, self.depth, self.mask, self.linear)
 
+    def unpacked(self) -> "Split":
+        """This split with its views held as arrays (8-bit where packed), else itself: what several reads of the
+        same views take (one unpacking instead of one per read)."""
+        if not self.is_packed:
+            return self
+        return Split(self.cameras, *self._views(), self.depth, self.mask, self.linear)
+
     def covered(self, index: np.ndarray) -> np.ndarray:
-        """Whether the pixels at flat indices ``index`` have any coverage (alpha > 0)."""
+        """Whether the pixels at flat indices ``index`` have any coverage (alpha > 0); a packed split is unpacked
+        whole for it."""
         return self._views()[1].reshape(-1)[index] > 0
 
     def pixels(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -191,7 +199,7 @@ class Split:
                                                   free_distance(self.depth, self.mask, None), solid_reach,
                                                   margin=margin)
             solid = self._extents[key]
-        return TrainingRays(self, background, solid)
+        return TrainingRays(self.unpacked(), background, solid)
 
     def downscaled(self, factor: int) -> "Split":
         """The views box-filtered by ``factor`` (:func:`box_downscale`; 2D views along their rows): colour, alpha

@@ -150,7 +150,9 @@ class Model(FieldSet):
                training: bool, weights: bool = False, input_grads: bool = False,
                occupancy: tuple | None = None, background: list | None = None) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
-        ``'samples': (t, delta)`` of the final pass when ``weights`` is set; ``occupancy``: the occupancy grid's
+        ``'samples': (t, delta)`` of the final pass and ``'spacing'``, the same along the distortion loss's
+        coordinate (world distance, or :meth:`~.space.Space.unit_spacing` in a warped scene), when ``weights`` is set;
+        ``occupancy``: the occupancy grid's
         :attr:`~.occupancy.OccupancyGrid.lookup`; ``background``: 3 arrays ``[n]``, a colour per ray (training), else
         the configuration's (:meth:`RenderConfig.render_background`). Renders without training end each ray's
         march where its transmittance falls to ``min_color_weight`` (:mod:`.integral`)."""
@@ -179,9 +181,9 @@ class Model(FieldSet):
             if not weights:
                 result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
-            result["samples"] = sampler.points(n, near, far)
-            if space.warped:                    # the distortion loss's coordinate (Space.unit_spacing)
-                result["spacing"] = space.unit_spacing(*result["samples"], near, far, dr.select)
+            result["samples"] = sampler.points(n, near, far)     # and the distortion loss's coordinate:
+            result["spacing"] = (space.unit_spacing(*result["samples"], near, far, dr.select) if space.warped
+                                 else result["samples"])
         return result
 
 

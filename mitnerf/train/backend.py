@@ -41,9 +41,8 @@ def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth
                                                              cfg.free_space_margin)
     if cfg.solid_weight > 0:
         loss = loss + cfg.solid_weight * ops.solid_behind(*behind, LEVEL)
-    if cfg.distortion_weight > 0:                # in the unit spacing coordinate where the scene is warped
-        s, ds = outs["spacing"] if outs.get("spacing") is not None else (t, delta)
-        loss = loss + cfg.distortion_weight * ops.distortion(final.weights, s, ds, n_final)
+    if cfg.distortion_weight > 0:                # world distance, or the unit spacing where the scene is warped
+        loss = loss + cfg.distortion_weight * ops.distortion(final.weights, *outs["spacing"], n_final)
     if cfg.opacity_weight > 0:
         loss = loss + cfg.opacity_weight * ops.opacity_entropy(final.opacity)
     return loss

@@ -196,7 +196,7 @@ def evaluate(backend, dataset: Dataset, split: str = "test", *, geometry_metrics
     bar = tqdm(total=len(index), desc=f"{split} views", unit="view", disable=not progress, leave=False)
     for start in range(0, len(index), step):
         part = index[start:start + step]
-        sub = s.subset(part)
+        sub = s.subset(part).unpacked()              # a packed split: these views unpacked once
         r, elapsed = render_split(backend, sub)
         rendering += elapsed
         tally.add(r["rgb"], r["opacity"], sub.target(bg), sub.alpha)

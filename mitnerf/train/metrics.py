@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import MitnerfError
+
 
 def psnr(pred: np.ndarray, target: np.ndarray) -> float:
     mse = float(np.mean((np.clip(pred, 0, 1) - target) ** 2))
@@ -18,7 +20,8 @@ def ssim(pred: np.ndarray, target: np.ndarray) -> float:
     """Mean SSIM over views ``[n, H, W, 3]``: scikit-image's ``structural_similarity`` with its defaults (a 7 x 7
     uniform window, sample covariances, :data:`SSIM_K`, data range 1, the window's half-width cropped at the border,
     the channels averaged), computed for the three channels at once; ``tests/test_metrics.py`` holds it to
-    scikit-image's figure. 1D views (W = 1) use a 1D window; views smaller than 7 pixels a smaller odd one."""
+    scikit-image's figure. 1D views (W = 1) use a 1D window; views smaller than 7 pixels a smaller odd one, and
+    views need at least 3 pixels along each axis (as scikit-image's smallest window)."""
     from scipy.ndimage import uniform_filter1d
 
     c1, c2 = (k * k for k in SSIM_K)
@@ -26,7 +29,10 @@ def ssim(pred: np.ndarray, target: np.ndarray) -> float:
     for p, t in zip(np.clip(pred, 0, 1), target):
         if p.shape[1] == 1:
             p, t = p[:, 0], t[:, 0]               # [H, 3]: a 1D signal with channels
-        win = max(3, min(7, *[s if s % 2 else s - 1 for s in p.shape[:-1]]))
+        if min(p.shape[:-1]) < 3:
+            raise MitnerfError(f"SSIM needs views of at least 3 pixels along each axis, not {p.shape[:-1]}; "
+                               "score larger views")
+        win = min(7, *[s if s % 2 else s - 1 for s in p.shape[:-1]])
         p, t = (np.ascontiguousarray(np.moveaxis(a, -1, 0), np.float32) for a in (p, t))     # [3, H(, W)]
 
         def mean(x: np.ndarray) -> np.ndarray:             # the window's mean, axis by axis
