@@ -17,7 +17,7 @@ from ..fields import CONDITIONED
 from ..render.space import pick_scene, scene_frame
 from .backend import Backend
 from .engines import make_backend
-from .evaluate import RunRecord, Tally, evaluate, render_split
+from .evaluate import RunRecord, classify, evaluate, render_split
 from .loop import Interrupted, LoopState, TrainingFailed, run_loop
 from .metrics import psnr
 from .recipes import Recipe
@@ -107,17 +107,17 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
         run.snapshot = resume.get("best_weights")
     val = dataset.splits.get("val")             # a few validation views, evenly spread
     val = val.subset(np.linspace(0, len(val) - 1, min(cfg.val_views, len(val))).astype(int)) if val else None
-    val_target, val_alpha = (val.target(bg), val.alpha) if val else (None, None)    # decoded (unpacked) once
+    val = val.unpacked() if val else None       # a packed split: unpacked once, not per validation
 
     def validate(step: int) -> None:
         r, _ = render_split(be, val)
-        status, reason = Tally().add(r["rgb"], r["opacity"], val_target, val_alpha, metrics=False).status()
+        status, reason = classify(r["rgb"], r["opacity"], val, bg)
         share = run.state.train_time / cfg.time_budget if cfg.time_budget else step / cfg.iters
         if status != "ok" and step >= 2 * cfg.warmup and share >= 0.25:
             raise TrainingFailed(f"the field {status} by step {step} ({reason}); use a softplus density "
                                  "(--set density_activation=softplus), a lower --lr or a longer warm-up",
                                  status, step)
-        value = psnr(r["rgb"], val_target)
+        value = psnr(r["rgb"], val.target(bg))
         for key, v in (("val_step", step), ("val_time", run.state.train_time), ("val_psnr", value)):
             run.state.history[key].append(v)
         if np.isfinite(value) and value > run.best.get("val_psnr", -np.inf):
