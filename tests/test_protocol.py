@@ -225,6 +225,30 @@ def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():
     assert GridConfig(dim=3, **args).lattice(321) == [161, 321, 81]
 
 
+def forward_views(width: int, height: int) -> Dataset:
+    """One forward-facing view of ``width`` x ``height`` pixels (the sizing reads only its size)."""
+    split = Split(Cameras(np.eye(4)[None], 400.0, height, width), np.zeros((1, height, width, 3), np.float32),
+                  np.ones((1, height, width), np.float32))
+    return Dataset({"train": split, "test": split}, 1.0, 10.0, {"kind": "3d"})
+
+
+@pytest.mark.parametrize("width, height, final, start, lattice", [
+    # x' takes 0.75 vertex a pixel of the width: 504 * 0.75 + 1 = 379, rounded to 94 * 4 + 1 = 377 (from 95); the
+    # cells in the proportions 504 : 378 : 63 (z', an eighth of the width): 376 * 0.75 + 1 = 283, 376 / 8 + 1 = 48
+    (504, 378, 377, 95, [377, 283, 48]),
+    # 1008 x 756 would take 757; at most 193^3 vertices: 192 / (0.75 / 8)^(1/3) + 1 = 423.6, so 106 * 4 + 1 = 425
+    (1008, 756, 425, 107, [425, 319, 54]),
+])
+def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, final, start, lattice):
+    from mitnerf.fields.grid import GridConfig
+
+    args = get_recipe("grid-forward").sized(forward_views(width, height)).model.field_args
+    assert (args["resolution"], args["initial_resolution"]) == (final, start)
+    assert GridConfig(dim=3, **args).lattice(final) == lattice
+    kept = get_recipe("grid-forward").override(cells=[4, 3, 1]).sized(forward_views(504, 378)).model.field_args
+    assert kept["cells"] == [4, 3, 1] and kept["resolution"] == 337   # 192 / (3 / 16)^(1/3) + 1 = 336.4: 84 * 4 + 1
+
+
 def test_a_recipe_is_sized_for_cameras_with_a_lens():
     """Sizing reads the focal lengths of any camera (per-frame intrinsics, distortion): the same lattice as the
     pinhole views of the same focal (``views_at(555.5)``: 161, the first row of the table above)."""

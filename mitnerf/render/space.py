@@ -12,9 +12,11 @@ A scene is one of :data:`SCENES`:
   ``[-1, 1]^3``. Samples are spaced linearly in disparity (``1 / t``), which is linear in ``z'``, from the near plane
   to 1.5 x the farthest depth bound.
 * ``unbounded``: a room around the object (instant-ngp's fox): ``q = (x - c) / r`` with ``c`` the point the cameras
-  look at and ``r`` their largest distance from it, then mip-NeRF 360's contraction ``x' = q`` for ``|q| <= 1``,
-  ``(2 - 1 / |q|) q / |q|`` beyond: all of space fills the ball of radius 2. Samples are linear in distance up to
-  the knee ``2 r`` (the inner ball's diameter) and linear in disparity beyond, as nerfacc and nerfstudio place them.
+  look at and ``r`` half their median distance from it (what they look at lies nearer that point than they stand,
+  so the inner ball's lattice goes to it, and most cameras stand in the shell), then mip-NeRF 360's contraction
+  ``x' = q`` for ``|q| <= 1``, ``(2 - 1 / |q|) q / |q|`` beyond: all of space fills the ball of radius 2. Samples
+  are linear in distance up to the knee ``2 r`` (the inner ball's diameter) and linear in disparity beyond, as
+  nerfacc and nerfstudio place them.
 
 The fields see ``x'`` (their box ``[-bound, bound]^3`` is the warped space: 1 for NDC, 2 for the contraction); the
 volume integral stays in world distance along unit directions, with the field's density, which is per unit of
@@ -41,7 +43,8 @@ NEAR_SCALE, FAR_SCALE = 0.9, 1.5
 """The NDC near plane as a share of the nearest depth bound, and the samples' far end as a multiple of the farthest
 (the bounds come from the sparse points LLFF and COLMAP saw)."""
 EPS = 1e-6
-INNER = 1.0
+INNER = 0.5
+"""The inner ball's radius in an unbounded scene, as a share of the cameras' median distance from their focus."""
 
 
 @dataclass(frozen=True)
@@ -199,7 +202,7 @@ def scene_frame(dataset: Dataset, kind: str) -> dict:
         frame = dict(bound=1.0, near=near, far=max(FAR_SCALE * far_bound, 2.0 * near), knee=near)
     elif kind == "unbounded":
         c = focus_point(poses)
-        r = INNER * float(np.linalg.norm(poses[:, :3, 3] - c, axis=1).max())
+        r = INNER * float(np.median(np.linalg.norm(poses[:, :3, 3] - c, axis=1)))
         if not r > 0:
             raise ConfigError("the cameras all stand at one point: an unbounded scene needs cameras that move")
         A = np.eye(3) / r

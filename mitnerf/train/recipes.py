@@ -17,7 +17,7 @@ from ..settings import field_named
 from .config import ModelConfig, TrainConfig
 
 
-SIZES = {"grid": ("resolution", "initial_resolution", "box"), "hashlinear": ("resolutions",),
+SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells"), "hashlinear": ("resolutions",),
          "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
 """The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
 
@@ -40,6 +40,10 @@ class Sizing:
     """Occupancy bins along a ray (the finest sample spacing) per lattice spacing."""
     samples: int = 64
     """Samples per ray (the occupancy sampler's slots)."""
+    depth_cells: float = 0.125
+    """Forward-facing scenes (a dense grid in NDC): cells along the depth axis ``z'`` per cell along ``x'``. NDC's
+    ``x'`` and ``y'`` span the views' width and height, so the lattice's cells there follow the images' pixels, and
+    ``z'``, even in disparity, needs far fewer."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
 
@@ -86,17 +90,23 @@ class Recipe:
         :attr:`Sizing.vertices_per_pixel` pixel footprints, at most as many in all as a cube of
         :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
         occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
-        an occupancy cell per two lattice spacings (up to 128 per axis). A size set on the recipe stays."""
+        an occupancy cell per two lattice spacings (up to 128 per axis). In a forward-facing scene the grid spans NDC's
+        cube in cells of the training images' width, height and :attr:`Sizing.depth_cells` times the width, its ``x'``
+        axis one per :attr:`Sizing.vertices_per_pixel` pixels of the width, and the occupancy grid keeps the recipe's
+        sizes. A size set on the recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
         out.sizing, args, r = None, out.model.field_args, out.model.render
         d = s.doublings
         grid, cams = out.model.field == "grid", dataset["train"].cameras
+        forward = grid and r.scene == "forward"
         if not grid or "box" in s.fixed:
             box = args.get("box")
         else:
             box = dataset.hull_box if r.scene in ("object", "auto") else None
+        if forward and "cells" not in s.fixed:            # NDC: x', y' across the views, z' along depth
+            args["cells"] = (float(cams.width), float(cams.height), s.depth_cells * cams.width)
         cells = args.get("cells")
         extent = [h - l for l, h in zip(box[:dataset.dim], box[dataset.dim:])] if box else [2 * dataset.bound]
         share = [e / max(cells or extent) for e in (cells or extent)]
@@ -105,7 +115,7 @@ class Recipe:
             top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
         else:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
-            across = full / footprint                                           # pixels along the fullest axis
+            across = cams.width if forward else full / footprint               # pixels along the fullest axis
             cap = (s.max_resolution - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
@@ -116,7 +126,7 @@ class Recipe:
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
                                                      / full))}
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
-            if key not in s.fixed and key in sizes:
+            if key not in s.fixed and key in sizes and not (forward and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
                     setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
                 elif key == "n_coarse":
@@ -300,8 +310,9 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(n_coarse=64, scene="forward"),
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
-       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity "
-       "(benchmarks/captures.py: fern/fit)"),
+       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity; the "
+       "lattice as fine as the images across and an eighth as fine along depth (benchmarks/captures.py: fern/fit)",
+       Sizing(vertices_per_pixel=0.75, max_resolution=193, doublings=2, depth_cells=0.125)),
     _r("grid-unbounded", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000),
                                          tv_weight=1e-3, view_dependent=True, tv_color_weight=3e-3),
        dict(n_coarse=64, scene="unbounded", occupancy=dict(enabled=True, resolution=64, march_bins=512)),
