@@ -11,7 +11,7 @@ from mitnerf.data.dataset import Dataset, Split
 from mitnerf.data.rays import background_colors
 from mitnerf.train.evaluate import evaluate
 from mitnerf.train.fit import resolve_background
-from mitnerf.train.recipes import get_recipe
+from mitnerf.train.recipes import LADDER, get_recipe
 
 
 def one_view() -> Split:
@@ -233,10 +233,13 @@ def forward_views(width: int, height: int) -> Dataset:
 
 
 @pytest.mark.parametrize("width, height, final, start, lattice", [
-    # x' takes 0.75 vertex a pixel of the width: 504 * 0.75 + 1 = 379, rounded to 94 * 4 + 1 = 377 (from 95); the
-    # cells in the proportions 504 : 378 : 63 (z', an eighth of the width): 376 * 0.75 + 1 = 283, 376 / 8 + 1 = 48
+    # x' takes 0.75 vertex a pixel of the width: 504 * 0.75 + 1 = 379; 378 / 4 = 94.5, rounded to even: 94, so
+    # 94 * 4 + 1 = 377 from 95; the cells in the proportions 504 : 378 : 63 (z', an eighth of the width):
+    # 376 * 0.75 + 1 = 283, 376 / 8 + 1 = 48
     (504, 378, 377, 95, [377, 283, 48]),
-    # 1008 x 756 would take 757; at most 193^3 vertices: 192 / (0.75 / 8)^(1/3) + 1 = 423.6, so 106 * 4 + 1 = 425
+    # portrait: the fullest axis is y', 504 pixels: the same 377 vertices, x' 283
+    (378, 504, 377, 95, [283, 377, 36]),
+    # 1008 x 756 would take 757; about 193^3 vertices at most: 192 / (0.75 / 8)^(1/3) + 1 = 423.6, so 106 * 4 + 1
     (1008, 756, 425, 107, [425, 319, 54]),
 ])
 def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, final, start, lattice):
@@ -247,6 +250,11 @@ def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, 
     assert GridConfig(dim=3, **args).lattice(final) == lattice
     kept = get_recipe("grid-forward").override(cells=[4, 3, 1]).sized(forward_views(504, 378)).model.field_args
     assert kept["cells"] == [4, 3, 1] and kept["resolution"] == 337   # 192 / (3 / 16)^(1/3) + 1 = 336.4: 84 * 4 + 1
+    cube = get_recipe("grid-forward").override(nulls=True, cells=None).sized(forward_views(504, 378)).model.field_args
+    assert cube["cells"] is None and cube["resolution"] == 193        # the cube: 193^3 at most
+    probe = get_recipe("grid-forward").override(**LADDER["forward"][0][1]).sized(forward_views(504, 378))
+    args = probe.model.field_args                                      # fit --auto's first probe: 97 across
+    assert GridConfig(dim=3, **args).lattice(args["resolution"]) == [97, 73, 13]   # 96 * 0.75 + 1, 96 / 8 + 1
 
 
 def test_a_recipe_is_sized_for_cameras_with_a_lens():

@@ -108,6 +108,7 @@ def recipe_from_args(args, dataset, scene: str = "object"):
     if args.recipe and args.field:
         raise ConfigError("--recipe and --field both choose the recipe; pass one of them")
     base = get_recipe(args.recipe) if args.recipe else recipe_for(args.field, dataset.dim, scene)
+    base.model.render.scene = scene                            # sized for the scene it is trained in
     for key, value in args.sets:
         where = base.declared(key)
         if where is None:
@@ -116,7 +117,6 @@ def recipe_from_args(args, dataset, scene: str = "object"):
         check_value(*where, value, prefix="occupancy." if key.startswith("occupancy.") else "")
     flags = {k: v for k, v in overrides(args).items() if k not in dict(args.sets)}
     recipe = base.override(**flags).override(nulls=True, **dict(args.sets))._marked(base).sized(dataset)
-    recipe.model.render.scene = scene
     check_step_memory(recipe.validate())
     return recipe
 

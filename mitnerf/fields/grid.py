@@ -64,7 +64,8 @@ class GridConfig(GridSettings):
     """A dense grid of density and colour."""
 
     resolution: int = setting(256, lo=2, hi=8193, flag="--grid-resolution")
-    """Grid vertices per axis at the end of training (up to 8193 in 2D, 513 in 3D)."""
+    """Vertices along the lattice's fullest axis at the end of training (the other axes follow ``cells`` or the
+    box; up to 8193 in 2D, 513 in 3D)."""
     initial_resolution: int | None = setting(None, lo=2, hi=8193)
     """Vertices per axis at the start (coarse to fine); None: ``resolution``."""
     upsample_at: tuple = setting((), lo=1, hi=1e9)

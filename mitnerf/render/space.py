@@ -15,8 +15,8 @@ A scene is one of :data:`SCENES`:
   look at and ``r`` half their median distance from it (what they look at lies nearer that point than they stand,
   so the inner ball's lattice goes to it, and most cameras stand in the shell), then mip-NeRF 360's contraction
   ``x' = q`` for ``|q| <= 1``, ``(2 - 1 / |q|) q / |q|`` beyond: all of space fills the ball of radius 2. Samples
-  are linear in distance up to the knee ``2 r`` (the inner ball's diameter) and linear in disparity beyond, as
-  nerfacc and nerfstudio place them.
+  are linear in distance up to the knee ``2 r`` (the cameras' median distance from the point they look at) and
+  linear in disparity beyond, as nerfacc and nerfstudio place them.
 
 The fields see ``x'`` (their box ``[-bound, bound]^3`` is the warped space: 1 for NDC, 2 for the contraction); the
 volume integral stays in world distance along unit directions, with the field's density, which is per unit of

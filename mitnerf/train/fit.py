@@ -79,7 +79,10 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     ``resume``: the state :func:`~mitnerf.train.checkpoint.load_checkpoint` returned, to continue it. Trains a copy
     of ``recipe`` (:attr:`Run.recipe`: sized for the data, its background and scene settled); ``recipe`` is left
     as it was."""
-    recipe = recipe.copy().sized(dataset).validate()
+    recipe = recipe.copy()
+    if recipe.model.render.scene == "auto":          # sized for the scene it is trained in
+        recipe.model.render.scene = pick_scene(dataset)[0]
+    recipe = recipe.sized(dataset).validate()
     if recipe.model.field in CONDITIONED:
         raise ConfigError(f"a {recipe.model.field} field renders from input views and trains across scenes; "
                           "run `mitnerf experiment pixelnerf`, or pick another --field")

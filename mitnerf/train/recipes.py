@@ -87,25 +87,25 @@ class Recipe:
         """A copy with the sizes :attr:`sizing` takes from ``dataset`` (``self`` where it has none): a dense grid's
         lattice spans the box around the training views' visual hull where the data has one (:attr:`Dataset.hull_box`,
         an object scene), else the cube of the bound; its fullest axis has ``R`` vertices, one per
-        :attr:`Sizing.vertices_per_pixel` pixel footprints, at most as many in all as a cube of
+        :attr:`Sizing.vertices_per_pixel` pixel footprints, about as many in all at most as a cube of
         :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
         occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
-        an occupancy cell per two lattice spacings (up to 128 per axis). In a forward-facing scene the grid spans NDC's
-        cube in cells of the training images' width, height and :attr:`Sizing.depth_cells` times the width, its ``x'``
-        axis one per :attr:`Sizing.vertices_per_pixel` pixels of the width, and the occupancy grid keeps the recipe's
-        sizes. A size set on the recipe stays."""
+        an occupancy cell per two lattice spacings (up to 128 per axis). In a forward-facing scene (NDC) a dense grid's
+        cells are in the proportions of the training images' width, height and :attr:`Sizing.depth_cells` times the
+        width; the fullest axis takes :attr:`Sizing.vertices_per_pixel` vertices a pixel of the images' longer side,
+        and the occupancy grid keeps the recipe's sizes. A size set on the recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
         out.sizing, args, r = None, out.model.field_args, out.model.render
         d = s.doublings
         grid, cams = out.model.field == "grid", dataset["train"].cameras
-        forward = grid and r.scene == "forward"
+        ndc = r.scene == "forward"
         if not grid or "box" in s.fixed:
             box = args.get("box")
         else:
             box = dataset.hull_box if r.scene in ("object", "auto") else None
-        if forward and "cells" not in s.fixed:            # NDC: x', y' across the views, z' along depth
+        if grid and ndc and "cells" not in s.fixed:            # NDC: x', y' across the views, z' along depth
             args["cells"] = (float(cams.width), float(cams.height), s.depth_cells * cams.width)
         cells = args.get("cells")
         extent = [h - l for l, h in zip(box[:dataset.dim], box[dataset.dim:])] if box else [2 * dataset.bound]
@@ -115,7 +115,7 @@ class Recipe:
             top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
         else:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
-            across = cams.width if forward else full / footprint               # pixels along the fullest axis
+            across = max(cams.width, cams.height) if ndc else full / footprint  # pixels along the fullest axis
             cap = (s.max_resolution - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
@@ -126,7 +126,7 @@ class Recipe:
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
                                                      / full))}
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
-            if key not in s.fixed and key in sizes and not (forward and key.startswith("occupancy.")):
+            if key not in s.fixed and key in sizes and not (ndc and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
                     setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
                 elif key == "n_coarse":
@@ -311,7 +311,8 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
        "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity; the "
-       "lattice as fine as the images across and an eighth as fine along depth (benchmarks/captures.py: fern/fit)",
+       "lattice of three vertices to four pixels across and an eighth as many along depth, within 193^3 vertices "
+       "(benchmarks/captures.py: fern/fit)",
        Sizing(vertices_per_pixel=0.75, max_resolution=193, doublings=2, depth_cells=0.125)),
     _r("grid-unbounded", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000),
                                          tv_weight=1e-3, view_dependent=True, tv_color_weight=3e-3),
@@ -328,6 +329,9 @@ DEFAULT = {2: "grid-2d", 3: "grid-3d", "forward": "grid-forward", "unbounded": "
 """The default recipe for data of each dimension, and for forward-facing and unbounded captures (``--scene``)."""
 
 # The sizes the searches try: each a family and settings on top of the family's recipe.
+_FIELDS_3D = [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))] \
+    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)] \
+    + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))]
 LADDER = {
     2: [("grid", dict(resolution=r, initial_resolution=min(r, 129), upsample_at=(150, 400)))
         for r in (33, 65, 129, 257, 513)]
@@ -335,12 +339,13 @@ LADDER = {
     + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (12, 14)]
     + [("hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13))],
     3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
-    + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
-    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)]
-    + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))],
+    + _FIELDS_3D,
+    "forward": [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1, upsample_at=(300, 1000)))
+                for r in (97, 193, 385)] + _FIELDS_3D,
 }
-"""``fit --auto``'s candidates per dimension: (family, settings on top of the family's recipe), probed smallest
-first."""
+"""``fit --auto``'s candidates per dimension and for forward-facing scenes (a grid's resolution there counts the
+vertices across the images' longer side; its cells follow the images): (family, settings on top of the family's
+recipe), probed smallest first."""
 
 SWEEP_SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
          "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
