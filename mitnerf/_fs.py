@@ -15,6 +15,7 @@ import os
 import secrets
 import shutil
 import signal
+import threading
 import weakref
 from pathlib import Path
 from typing import Callable, Iterator
@@ -202,13 +203,25 @@ def tidy(target: Path) -> None:
 
 @contextlib.contextmanager
 def no_interrupts() -> Iterator[None]:
-    """SIGINT and SIGTERM wait until the block is done (a swap is never cut in half by Ctrl-C)."""
-    sigs = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    """SIGINT and SIGTERM wait until the block is done (a swap is never cut in half by Ctrl-C). The signals are
+    held by handlers of the main thread and raised again after it (a mask would hold them from this thread only, and
+    the kernel would hand them to another). A signal the command's handler saw before the block (its ``arrived``,
+    ``mitnerf.cli``) is raised again first, so nothing is committed: its exception may have been dropped."""
+    if threading.current_thread() is not threading.main_thread():
+        yield                                   # signals reach the main thread alone; nothing to hold here
+        return
+    arrived = getattr(signal.getsignal(signal.SIGINT), "arrived", ())
+    if arrived:
+        signal.raise_signal(arrived[0])
+    held: list[int] = []
+    old = {s: signal.signal(s, lambda signum, frame: held.append(signum)) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        if held:
+            signal.raise_signal(held[0])
 
 
 def cache_root() -> Path:

@@ -227,6 +227,24 @@ def test_an_interrupted_dataset_says_so_in_one_line_and_leaves_nothing(tmp_path,
     assert "Traceback" not in err and os.listdir(tmp_path) == []
 
 
+def test_an_interrupt_python_dropped_still_stops_the_commit(tmp_path, capsys):
+    """Python drops an exception raised in a callback (a weak reference's during an import, a ``__del__``): the
+    command's handler keeps the signal, and the output is not committed; the dropped exception prints nothing."""
+    from mitnerf.cli import _signals_raise
+
+    class Dropped:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGINT)          # the handler runs here: its KeyboardInterrupt is dropped
+            time.sleep(0.01)
+
+    with _signals_raise(), pytest.raises(KeyboardInterrupt):
+        with Output(tmp_path / "out", "figures", False).staged() as tmp:
+            (tmp / "a.txt").write_text("a")
+            Dropped()                                    # deleted at once
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler      # the handlers are put back
+    assert os.listdir(tmp_path) == [] and capsys.readouterr().err == ""
+
+
 def test_resume_after_the_dataset_moved_names_data(tmp_path, capsys):
     assert main([*DATASET, "--out", str(tmp_path / "ds")]) == 0
     assert main(["fit", "--data", str(tmp_path / "ds"), "--iters", "3", "--no-figures",

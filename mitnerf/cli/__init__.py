@@ -42,17 +42,28 @@ def build_parser() -> Parser:
 
 @contextlib.contextmanager
 def _signals_raise():
-    def terminate(signum, frame):
-        raise Terminated()
+    """SIGTERM and SIGINT raise :class:`Terminated` and :class:`KeyboardInterrupt`, and the handler keeps the signals
+    it saw (``arrived``): Python drops an exception raised inside a callback (a weak reference's, during an import),
+    so an output checks ``arrived`` before it is committed (:func:`mitnerf._fs.no_interrupts`)."""
+    def interrupt(signum, frame):
+        interrupt.arrived.append(signum)
+        raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+    def unraisable(info):               # an interrupt dropped by Python: in ``arrived``, raised again before a commit
+        if not isinstance(info.exc_value, KeyboardInterrupt):
+            hook(info)
+    interrupt.arrived = []
     try:
-        old = signal.signal(signal.SIGTERM, terminate)
+        old = {s: signal.signal(s, interrupt) for s in (signal.SIGTERM, signal.SIGINT)}
     except ValueError:                  # not the main thread: leave signals alone
         yield
         return
+    hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        sys.unraisablehook = hook
+        for s, handler in old.items():
+            signal.signal(s, handler)
 
 
 class _NotesFirst:
