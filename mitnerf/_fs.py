@@ -210,7 +210,7 @@ def no_interrupts() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield                                   # signals reach the main thread alone; nothing to hold here
         return
-    arrived = getattr(signal.getsignal(signal.SIGINT), "arrived", ())
+    arrived = [n for s in (signal.SIGINT, signal.SIGTERM) for n in getattr(signal.getsignal(s), "arrived", ())]
     if arrived:
         signal.raise_signal(arrived[0])
     held: list[int] = []

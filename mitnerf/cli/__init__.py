@@ -52,8 +52,9 @@ def _signals_raise():
         if not isinstance(info.exc_value, KeyboardInterrupt):
             hook(info)
     interrupt.arrived = []
-    try:
-        old = {s: signal.signal(s, interrupt) for s in (signal.SIGTERM, signal.SIGINT)}
+    try:                                # a signal ignored from the start (a job in the background) stays ignored
+        old = {s: signal.signal(s, interrupt) for s in (signal.SIGTERM, signal.SIGINT)
+               if signal.getsignal(s) is not signal.SIG_IGN}
     except ValueError:                  # not the main thread: leave signals alone
         yield
         return
