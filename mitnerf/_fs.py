@@ -206,7 +206,9 @@ def no_interrupts() -> Iterator[None]:
     """SIGINT and SIGTERM wait until the block is done (a swap is never cut in half by Ctrl-C). The signals are
     held by handlers of the main thread and raised again after it (a mask would hold them from this thread only, and
     the kernel would hand them to another). A signal the command's handler saw before the block (its ``arrived``,
-    ``mitnerf.cli``) is raised again first, so nothing is committed: its exception may have been dropped."""
+    ``mitnerf.cli``) is raised again first, so nothing is committed: its exception may have been dropped. A writer
+    that saves after an interrupt (a fit's checkpoint) holds the signals with its own handler
+    (``mitnerf.train.loop.deferred_signals``), which takes the command's place."""
     if threading.current_thread() is not threading.main_thread():
         yield                                   # signals reach the main thread alone; nothing to hold here
         return
