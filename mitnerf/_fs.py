@@ -202,26 +202,43 @@ def tidy(target: Path) -> None:
 
 
 @contextlib.contextmanager
-def no_interrupts() -> Iterator[None]:
-    """SIGINT and SIGTERM wait until the block is done (a swap is never cut in half by Ctrl-C). The signals are
-    held by handlers of the main thread and raised again after it (a mask would hold them from this thread only, and
-    the kernel would hand them to another). A signal the command's handler saw before the block (its ``arrived``,
-    ``mitnerf.cli``) is raised again first, so nothing is committed: its exception may have been dropped. A writer
-    that saves after an interrupt (a fit's checkpoint) holds the signals with its own handler
-    (``mitnerf.train.loop.deferred_signals``), which takes the command's place."""
+def deferred_signals(second_stops: bool = True) -> Iterator[list]:
+    """Record SIGINT and SIGTERM instead of raising; yields the list of the signals. Handlers of the main thread
+    hold them (a mask would hold them from this thread only, and the kernel would hand them to another); with
+    ``second_stops``, a second Ctrl-C stops at once. Elsewhere than the main thread, which alone receives Python's
+    signals, nothing is held."""
+    got: list[int] = []
     if threading.current_thread() is not threading.main_thread():
-        yield                                   # signals reach the main thread alone; nothing to hold here
+        yield got
         return
+
+    def handler(signum, frame):
+        if second_stops and got and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        got.append(signum)
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield got
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+@contextlib.contextmanager
+def no_interrupts() -> Iterator[None]:
+    """SIGINT and SIGTERM wait until the block is done (a swap is never cut in half by Ctrl-C), then are raised
+    again. A signal the command's handler saw before the block (its ``arrived``, ``mitnerf.cli``) is raised again
+    first, so nothing is committed: its exception may have been dropped. A writer that saves after an interrupt (a
+    fit's checkpoint) holds the signals with :func:`deferred_signals`, whose handler takes the command's place."""
     arrived = [n for s in (signal.SIGINT, signal.SIGTERM) for n in getattr(signal.getsignal(s), "arrived", ())]
-    if arrived:
+    if arrived and threading.current_thread() is threading.main_thread():
         signal.raise_signal(arrived[0])
     held: list[int] = []
-    old = {s: signal.signal(s, lambda signum, frame: held.append(signum)) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        yield
+        with deferred_signals(second_stops=False) as held:
+            yield
     finally:
-        for s, handler in old.items():
-            signal.signal(s, handler)
         if held:
             signal.raise_signal(held[0])
 

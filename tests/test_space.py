@@ -64,8 +64,8 @@ def test_samples_are_even_in_disparity_past_the_knee():
 def test_the_distortion_loss_is_taken_along_the_unit_spacing_coordinate():
     # knee 2, near 1, far 6: s(1) = 1, s(6) = 4 - 4 / 6 = 10 / 3; a sample from t = 1.5 (s 1.5) to t = 3
     # (s = 4 - 4 / 3 = 8 / 3) starts at (1.5 - 1) / (7 / 3) = 3 / 14 and spans (8 / 3 - 1.5) / (7 / 3) = 0.5
-    one = lambda k, c: Space("forward", {"knee": k}).unit_spacing(np.array([1.5 * c]), np.array([1.5 * c]),
-                                                                  np.array(1.0 * c), np.array(6.0 * c), np.where)
+    one = lambda k, c: Space("forward", {"knee": k}).spacing(np.array([1.5 * c]), np.array([1.5 * c]),
+                                                             np.array(1.0 * c), np.array(6.0 * c), np.where)
     np.testing.assert_allclose(np.ravel(one(2.0, 1.0)), [3 / 14, 0.5])
     # the same capture with poses ten times larger (COLMAP's scale is arbitrary): the same coordinates
     np.testing.assert_allclose(np.ravel(one(20.0, 10.0)), [3 / 14, 0.5])

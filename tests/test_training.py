@@ -61,7 +61,7 @@ def test_engines_agree_step_by_step(bunny_small, family, option):
 @pytest.mark.parametrize("scene", ["forward", "unbounded"])
 def test_engines_agree_step_by_step_in_a_warped_scene(vase_small, scene):
     """NDC and the contraction with the distortion loss, which both engines take along the unit spacing coordinate
-    (``Space.unit_spacing``): the loss curves coincide."""
+    (``Space.spacing``): the loss curves coincide."""
     from mitnerf.train.fit import settle_scene
 
     recipe = small("grid-3d", distortion_weight=0.05, opacity_weight=0.01, free_space_weight=0.0, solid_weight=0.0,

@@ -20,7 +20,8 @@ from ..train.auto import AutoConfig, choose_recipe
 from ..train.checkpoint import checkpoint_bytes, load_checkpoint, read_manifest, write_fit
 from ..data.rays import background_name
 from ..train.fit import check_dataset, fit, resolve_background
-from ..train.loop import Interrupted, TrainingFailed, deferred_signals
+from .._fs import deferred_signals
+from ..train.loop import Interrupted, TrainingFailed
 from ..train.recipes import DEFAULT, RECIPES
 from ..settings import setting
 from .args import (Writes, add_command, add_recipe_flags, overrides, parse, recipe_from_args,

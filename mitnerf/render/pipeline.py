@@ -151,7 +151,7 @@ class Model(FieldSet):
                occupancy: tuple | None = None, background: list | None = None) -> dict:
         """-> ``{'coarse': RenderOutput, 'fine': RenderOutput or None}``, plus
         ``'samples': (t, delta)`` of the final pass and ``'spacing'``, the same along the distortion loss's
-        coordinate (world distance, or :meth:`~.space.Space.unit_spacing` in a warped scene), when ``weights`` is set;
+        coordinate (:meth:`~.space.Space.spacing`), when ``weights`` is set;
         ``occupancy``: the occupancy grid's
         :attr:`~.occupancy.OccupancyGrid.lookup`; ``background``: 3 arrays ``[n]``, a colour per ray (training), else
         the configuration's (:meth:`RenderConfig.render_background`). Renders without training end each ray's
@@ -181,9 +181,8 @@ class Model(FieldSet):
             if not weights:
                 result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
-            result["samples"] = sampler.points(n, near, far)     # and the distortion loss's coordinate:
-            result["spacing"] = (space.unit_spacing(*result["samples"], near, far, dr.select) if space.warped
-                                 else result["samples"])
+            result["samples"] = sampler.points(n, near, far)
+            result["spacing"] = space.spacing(*result["samples"], near, far, dr.select)
         return result
 
 

@@ -103,11 +103,14 @@ class Space:
         """Distance along a ray where samples turn from linear to linear in disparity (None: linear throughout)."""
         return self.frame["knee"] if self.warped else None
 
-    def unit_spacing(self, t, delta, near, far, select) -> tuple:
-        """Samples' ``t`` and ``delta`` (world distances, any engine's arrays) in the spacing coordinate
-        (:func:`to_s`) normalised to [0, 1] over ``[near, far]``: where mip-NeRF 360 takes its distortion loss. A
-        warped scene's world units are whatever its poses' were (COLMAP's scale), so a loss in them would weigh
-        differently on every capture; ``select``: ``dr.select`` or ``torch.where``."""
+    def spacing(self, t, delta, near, far, select) -> tuple:
+        """Samples' ``t`` and ``delta`` (world distances, any engine's arrays) along the distortion loss's coordinate:
+        in a warped scene the spacing coordinate (:func:`to_s`) normalised to [0, 1] over ``[near, far]``, where
+        mip-NeRF 360 takes it (its world units are whatever its poses' were, COLMAP's scale, so a loss in them would
+        weigh differently on every capture); in an object scene world distance, which the data's bound normalises.
+        ``select``: ``dr.select`` or ``torch.where``."""
+        if not self.warped:
+            return t, delta
         k = self.knee
         lo, hi = (to_s(v, k, select) for v in (near, far))
         s0, s1 = to_s(t, k, select), to_s(t + delta, k, select)

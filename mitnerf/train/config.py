@@ -85,7 +85,7 @@ class TrainConfig:
     of the grids, so matter begins at the surface."""
     distortion_weight: float = setting(0.0, lo=0, hi=1e6, flag="--distortion-weight")
     """Weight of mip-NeRF 360's distortion loss (floaters, fill-in), taken along world distance in an object scene
-    and along the unit spacing coordinate in a forward or unbounded one (``Space.unit_spacing``); 0: off."""
+    and along the unit spacing coordinate in a forward or unbounded one (``Space.spacing``); 0: off."""
     opacity_weight: float = setting(0.0, lo=0, hi=1e6, flag="--opacity-weight")
     """Weight of the rays' opacity entropy (haze); 0: off."""
     val_every: int | None = setting(None, lo=0, hi=10 ** 9, flag="--val-every", unit="steps",

@@ -80,8 +80,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     of ``recipe`` (:attr:`Run.recipe`: sized for the data, its background and scene settled); ``recipe`` is left
     as it was."""
     recipe = recipe.copy()
-    if recipe.model.render.scene == "auto":          # sized for the scene it is trained in
-        recipe.model.render.scene = pick_scene(dataset)[0]
+    scene = settle_scene(recipe, dataset)            # first: a recipe is sized for the scene it is trained in
     recipe = recipe.sized(dataset).validate()
     if recipe.model.field in CONDITIONED:
         raise ConfigError(f"a {recipe.model.field} field renders from input views and trains across scenes; "
@@ -96,7 +95,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     resolve_background(recipe, dataset)
     r = recipe.model.render
     bg = r.render_background()
-    be = make_backend(backend, recipe.model, cfg, dataset.dim, *settle_scene(recipe, dataset))
+    be = make_backend(backend, recipe.model, cfg, dataset.dim, *scene)
     be.set_data(dataset["train"].rays("random" if r.background == "random" else bg, **cfg.ray_args()))
     c = dataset["train"].cameras
     run = Run(be, recipe, {**dataset.meta, "size": [c.width, c.height]})        # the views' size, as read

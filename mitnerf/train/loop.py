@@ -5,9 +5,7 @@ SIGTERM lets the step in flight finish, then raises :class:`Interrupted`."""
 
 from __future__ import annotations
 
-import contextlib
 import signal
-import threading
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -15,6 +13,7 @@ from typing import Callable
 import numpy as np
 from tqdm.auto import tqdm
 
+from .._fs import deferred_signals
 from ..rng import step_seed
 from .config import TrainConfig
 
@@ -49,27 +48,6 @@ class LoopState:
     """Seconds of training so far (validation excluded)."""
     history: dict = field(default_factory=new_history)
     """Loss per read-back step and validation PSNR, with their times."""
-
-
-@contextlib.contextmanager
-def deferred_signals():
-    """Record SIGINT/SIGTERM instead of raising (a second Ctrl-C stops at once); yields a list of the signals."""
-    got: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield got
-        return
-
-    def handler(signum, frame):
-        if got and signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        got.append(signum)
-
-    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield got
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
 
 
 def run_loop(step_fn: Callable, read_fn: Callable, cfg: TrainConfig, state: LoopState,

@@ -57,9 +57,8 @@ class Model(nn.Module, FieldSet):
         elif not weights:
             result["coarse"] = replace(result["coarse"], weights=None)
         if weights:
-            result["samples"] = sampler.points(n, near, far)     # and the distortion loss's coordinate:
+            result["samples"] = sampler.points(n, near, far)
             t = result["samples"][0]
-            result["spacing"] = (space.unit_spacing(*result["samples"], torch.as_tensor(near, dtype=t.dtype),
-                                                    torch.as_tensor(far, dtype=t.dtype), torch.where)
-                                 if space.warped else result["samples"])
+            result["spacing"] = space.spacing(*result["samples"], torch.as_tensor(near, dtype=t.dtype),
+                                              torch.as_tensor(far, dtype=t.dtype), torch.where)
         return result
