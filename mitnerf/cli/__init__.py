@@ -5,7 +5,9 @@ photographs (`poses`), fit a field to either (`fit`), look at both (`show`, `vid
 Every bad input and every file-system failure (a full disk, a read-only folder) ends in one line on stderr
 (``mitnerf: error: ...``, naming the problem and the fix) and exit status 2, with nothing written. A training run
 that stops (NaN, collapse) exits 1. Ctrl-C or SIGTERM ends any command with one line, its temporary files removed,
-and exit status 130 (SIGINT) or 143 (SIGTERM); ``fit`` first writes its checkpoint and says how to resume."""
+and exit status 130 (SIGINT) or 143 (SIGTERM); ``fit`` first writes its checkpoint and says how to resume. (CPython
+3.11 ends a process by SIGINT itself, which a shell also reports as 130, when a KeyboardInterrupt passed through
+code that ``exec()`` ran, caught or not.)"""
 
 from __future__ import annotations
 
@@ -42,9 +44,10 @@ def build_parser() -> Parser:
 
 @contextlib.contextmanager
 def _signals_raise():
-    """SIGTERM and SIGINT raise :class:`Terminated` and :class:`KeyboardInterrupt`, and the handler keeps the signals
-    it saw (``arrived``): Python drops an exception raised inside a callback (a weak reference's, during an import),
-    so an output checks ``arrived`` before it is committed (:func:`mitnerf._fs.no_interrupts`)."""
+    """SIGTERM and SIGINT raise :class:`Terminated` and :class:`KeyboardInterrupt`; yields the signals the handler saw
+    (its ``arrived``). Python drops an exception raised inside a callback (a weak reference's, during an import) and
+    turns one raised in a class's ``__set_name__`` into a RuntimeError, so an output checks ``arrived`` before it is
+    committed (:func:`mitnerf._fs.no_interrupts`), and :func:`main` takes any error after a signal for the signal."""
     def interrupt(signum, frame):
         interrupt.arrived.append(signum)
         raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
@@ -56,11 +59,11 @@ def _signals_raise():
         old = {s: signal.signal(s, interrupt) for s in (signal.SIGTERM, signal.SIGINT)
                if signal.getsignal(s) is not signal.SIG_IGN}
     except ValueError:                  # not the main thread: leave signals alone
-        yield
+        yield interrupt.arrived
         return
     hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
-        yield
+        yield interrupt.arrived
     finally:
         sys.unraisablehook = hook
         for s, handler in old.items():
@@ -90,9 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     for stream in (sys.stdout, sys.stderr):         # a folder name that is not UTF-8 still prints
         with contextlib.suppress(AttributeError, ValueError):
             stream.reconfigure(errors="backslashreplace")
-    out = _NotesFirst(sys.stdout, [])
+    out, arrived = _NotesFirst(sys.stdout, []), []
     try:
-        with _signals_raise(), warnings.catch_warnings(), contextlib.redirect_stdout(out):
+        with _signals_raise() as arrived, warnings.catch_warnings(), contextlib.redirect_stdout(out):
             warnings.simplefilter("always", Note)             # a Note waits for the work; other warnings as usual
             show = warnings.showwarning
             warnings.showwarning = lambda message, category, *a, **k: out.notes.append(str(message)) \
@@ -102,14 +105,22 @@ def main(argv: list[str] | None = None) -> int:
             status = int(args.run(args) or 0)
             out.flush_notes()
             return status
-    except (MitnerfError, OSError) as exc:
+    except Exception as exc:
+        if arrived:                     # the signal's exception, changed on its way (see _signals_raise)
+            return _interrupted(arrived[0] == signal.SIGTERM, "")
+        if not isinstance(exc, (MitnerfError, OSError)):
+            raise
         print(f"mitnerf: error: {os_error_line(exc) if isinstance(exc, OSError) else exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
-        sig = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
-        print(f"mitnerf: interrupted ({sig}); temporary files removed, earlier outputs untouched"
-              f"{getattr(exc, 'note', '')}", file=sys.stderr)
-        return 143 if sig == "SIGTERM" else 130
+        return _interrupted(isinstance(exc, Terminated), getattr(exc, "note", ""))
+
+
+def _interrupted(term: bool, note: str) -> int:
+    """The line and the exit status of a command stopped by SIGTERM (``term``) or SIGINT."""
+    print(f"mitnerf: interrupted ({'SIGTERM' if term else 'SIGINT'}); temporary files removed, earlier outputs "
+          f"untouched{note}", file=sys.stderr)
+    return 143 if term else 130
 
 
 def example_main(name: str, doc: str, argv=None) -> int:
