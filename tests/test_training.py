@@ -75,6 +75,32 @@ def test_engines_agree_step_by_step_in_a_warped_scene(vase_small, scene):
     np.testing.assert_allclose(curves[0], curves[1], rtol=3e-3)
 
 
+def test_a_grid_step_with_total_variation_never_copies_the_colour_gradient(vase_small):
+    """The Dr.Jit step records the terms that read parameters at scattered points (total variation) before the
+    render, so the integral's gradient is added to theirs (backend_drjit): no kernel of a step copies an array the
+    size of the colour grid, the largest one (recorded the other way round, one copied it every step)."""
+    import drjit as dr
+
+    from mitnerf.train.fit import settle_scene
+
+    recipe = small("grid-3d", resolution=65, initial_resolution=65, upsample_at=(), solid_weight=0.0,
+                   free_space_weight=0.0)
+    assert recipe.model.field_args["tv_color_weight"] > 0
+    recipe.model.render.scene = "forward"
+    be = make_backend("drjit", recipe.model, recipe.train, 3, *settle_scene(recipe, vase_small))
+    be.set_data(vase_small["train"].rays((1, 1, 1), **recipe.train.ray_args()))
+    for k in range(3):                                      # the recordings of the frozen step
+        be.read(be.step(k, step_seed(0, k), 0.02))
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history()
+        be.read(be.step(3, step_seed(0, 3), 0.02))
+        dr.sync_thread()
+        kernels = dr.kernel_history()
+    colour = 4 * dr.width(be.params["coarse.color"])             # bytes
+    assert any(k["type"] == dr.KernelType.JIT for k in kernels)
+    assert not [k for k in kernels if k["type"] == dr.KernelType.Memcpy and k["size"] == colour]
+
+
 def test_training_goes_on_as_before_after_the_engine_gives_back_its_memory(bunny_small):
     """``release()`` between steps (fit calls it when training ends; a step after it allocates again) changes no
     loss: one thread, so the sums are deterministic."""

@@ -90,8 +90,10 @@ class DrJitBackend(Backend):
                 d = [d[i] + a * fp[i] + b * fp[D + i] for i in range(D)]
                 inv = dr.rsqrt(sum(di * di for di in d))
                 d = [di * inv for di in d]
-            outs = model.render(params, o, d, near, far, seed, training=True, weights=use_weights,
-                                occupancy=occupancy, background=data["background"])
+            # the terms that read parameters at scattered points before the render: their gradients, scatters into
+            # new arrays, come first in the backward pass and the integral's is added to them; the other way round
+            # a scatter would copy the integral's whole gradient first (tests/test_training.py)
+            reg = model.regularizer(params, seed)
             depth, behind = data["depth"][0], None
             if cfg.solid_weight > 0:            # points within the solid extent behind pixel-centre depths
                 extent = data["solid"][0]
@@ -99,8 +101,10 @@ class DrJitBackend(Backend):
                 t = behind_depth(u, depth, extent, cfg.solid_start)
                 behind = (model.density(params, [oi + t * di for oi, di in zip(o, d_centre)]),
                           dr.select(extent > 0, 1.0, 0.0))
+            outs = model.render(params, o, d, near, far, seed, training=True, weights=use_weights,
+                                occupancy=occupancy, background=data["background"])
             loss = training_loss(cfg, n_final, losses, outs, data["target"], depth, data["hit"][0],
-                                 data["free"][0], behind, model.regularizer(params, seed))
+                                 data["free"][0], behind, reg)
             dr.backward(loss)
             opt.step()
             return loss
