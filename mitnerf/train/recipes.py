@@ -307,10 +307,11 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "instant-ngp's levels and networks with an occupancy grid"),
     _r("grid-forward", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000), tv_weight=1e-4,
                                        view_dependent=True, tv_color_weight=3e-4),
-       dict(n_coarse=64, scene="forward"),
+       dict(n_coarse=64, scene="forward", occupancy=dict(enabled=True)),
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
-       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity; the "
+       "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity and placed "
+       "in occupied space by an occupancy grid; the "
        "lattice of three vertices to four pixels across and an eighth as many along depth, within 193^3 vertices "
        "(benchmarks/captures.py: fern/fit)",
        Sizing(vertices_per_pixel=0.75, max_resolution=193, doublings=2, depth_cells=0.125)),
