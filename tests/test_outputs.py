@@ -251,7 +251,7 @@ def test_an_interrupt_python_dropped_still_stops_the_commit(tmp_path, capsys):
 
 def test_an_interrupt_python_turned_into_another_error_ends_as_the_interrupt(monkeypatch, capsys):
     """Python turns an exception raised in a class's ``__set_name__`` into a RuntimeError: after a signal, main
-    takes any error for the signal (one line, 143), not for a bug (a traceback)."""
+    takes such an unexpected error for the signal (one line, 143), not for a bug (a traceback)."""
     import mitnerf.cli as cli
 
     class Named:

@@ -47,7 +47,7 @@ def _signals_raise():
     """SIGTERM and SIGINT raise :class:`Terminated` and :class:`KeyboardInterrupt`; yields the signals the handler saw
     (its ``arrived``). Python drops an exception raised inside a callback (a weak reference's, during an import) and
     turns one raised in a class's ``__set_name__`` into a RuntimeError, so an output checks ``arrived`` before it is
-    committed (:func:`mitnerf._fs.no_interrupts`), and :func:`main` takes any error after a signal for the signal."""
+    committed (:func:`mitnerf._fs.no_interrupts`), and after a signal :func:`main` takes an unexpected error for it."""
     def interrupt(signum, frame):
         interrupt.arrived.append(signum)
         raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
@@ -105,13 +105,13 @@ def main(argv: list[str] | None = None) -> int:
             status = int(args.run(args) or 0)
             out.flush_notes()
             return status
-    except Exception as exc:
-        if arrived:                     # the signal's exception, changed on its way (see _signals_raise)
-            return _interrupted(arrived[0] == signal.SIGTERM, "")
-        if not isinstance(exc, (MitnerfError, OSError)):
-            raise
+    except (MitnerfError, OSError) as exc:
         print(f"mitnerf: error: {os_error_line(exc) if isinstance(exc, OSError) else exc}", file=sys.stderr)
         return 2
+    except Exception:
+        if not arrived:
+            raise
+        return _interrupted(arrived[0] == signal.SIGTERM, "")    # the signal's exception, changed on its way
     except KeyboardInterrupt as exc:
         return _interrupted(isinstance(exc, Terminated), getattr(exc, "note", ""))
 
