@@ -58,19 +58,23 @@ def test_engines_agree_step_by_step(bunny_small, family, option):
     assert curves[0][-1] < curves[0][0]
 
 
+def warped_engine(engine: str, recipe, dataset, scene: str):
+    """An engine for ``recipe`` trained on ``dataset`` (3D, white) as a ``scene`` (forward or unbounded)."""
+    from mitnerf.train.fit import settle_scene
+
+    recipe.model.render.scene = scene
+    be = make_backend(engine, recipe.model, recipe.train, 3, *settle_scene(recipe, dataset))
+    be.set_data(dataset["train"].rays((1, 1, 1), **recipe.train.ray_args()))
+    return be
+
+
 @pytest.mark.parametrize("scene", ["forward", "unbounded"])
 def test_engines_agree_step_by_step_in_a_warped_scene(vase_small, scene):
     """NDC and the contraction with the distortion loss, which both engines take along the unit spacing coordinate
     (``Space.spacing``): the loss curves coincide."""
-    from mitnerf.train.fit import settle_scene
-
     recipe = small("grid-3d", distortion_weight=0.05, opacity_weight=0.01, free_space_weight=0.0, solid_weight=0.0,
                    **{"occupancy.enabled": False})
-    recipe.model.render.scene = scene
-    bound, near, far = settle_scene(recipe, vase_small)
-    bes = [make_backend(b, recipe.model, recipe.train, 3, bound, near, far) for b in ("drjit", "torch")]
-    for be in bes:
-        be.set_data(vase_small["train"].rays((1, 1, 1), **recipe.train.ray_args()))
+    bes = [warped_engine(b, recipe, vase_small, scene) for b in ("drjit", "torch")]
     curves = [[be.read(be.step(k, step_seed(0, k), 0.02))[0] for k in range(8)] for be in bes]
     np.testing.assert_allclose(curves[0], curves[1], rtol=3e-3)
 
@@ -81,14 +85,10 @@ def test_a_grid_step_with_total_variation_never_copies_the_colour_gradient(vase_
     size of the colour grid, the largest one (recorded the other way round, one copied it every step)."""
     import drjit as dr
 
-    from mitnerf.train.fit import settle_scene
-
     recipe = small("grid-3d", resolution=65, initial_resolution=65, upsample_at=(), solid_weight=0.0,
                    free_space_weight=0.0)
     assert recipe.model.field_args["tv_color_weight"] > 0
-    recipe.model.render.scene = "forward"
-    be = make_backend("drjit", recipe.model, recipe.train, 3, *settle_scene(recipe, vase_small))
-    be.set_data(vase_small["train"].rays((1, 1, 1), **recipe.train.ray_args()))
+    be = warped_engine("drjit", recipe, vase_small, "forward")
     for k in range(3):                                      # the recordings of the frozen step
         be.read(be.step(k, step_seed(0, k), 0.02))
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
