@@ -233,14 +233,14 @@ def forward_views(width: int, height: int) -> Dataset:
 
 
 @pytest.mark.parametrize("width, height, final, start, lattice", [
-    # x' takes 0.75 vertex a pixel of the width: 504 * 0.75 + 1 = 379; 378 / 4 = 94.5, rounded to even: 94, so
-    # 94 * 4 + 1 = 377 from 95; the cells in the proportions 504 : 378 : 63 (z', an eighth of the width):
-    # 376 * 0.75 + 1 = 283, 376 / 8 + 1 = 48
-    (504, 378, 377, 95, [377, 283, 48]),
-    # portrait: the fullest axis is y', 504 pixels: the same 377 vertices, x' 283
-    (378, 504, 377, 95, [283, 377, 36]),
-    # 1008 x 756 would take 757; about 193^3 vertices at most: 192 / (0.75 / 8)^(1/3) + 1 = 423.6, so 106 * 4 + 1
-    (1008, 756, 425, 107, [425, 319, 54]),
+    # x' takes a vertex a pixel of the width: 504 + 1 = 505; 504 / 4 = 126, so 126 * 4 + 1 = 505 from 127; the cells
+    # in the proportions 504 : 378 : 63 (z', an eighth of the width): 378 + 1 = 379, 504 / 8 + 1 = 64
+    (504, 378, 505, 127, [505, 379, 64]),
+    # portrait: the fullest axis is y', 504 pixels: the same 505 vertices, x' 379, z' 378 / 8 + 1 = 48.25: 48
+    (378, 504, 505, 127, [379, 505, 48]),
+    # 1008 x 756 would take 1009; 241^3 vertices at most allows 240 / (0.75 / 8)^(1/3) + 1 = 529.3, and a 3D grid has
+    # at most 513 a side: 128 * 4 + 1 from 129
+    (1008, 756, 513, 129, [513, 385, 65]),
 ])
 def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, final, start, lattice):
     from mitnerf.fields.grid import GridConfig
@@ -249,9 +249,9 @@ def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, 
     assert (args["resolution"], args["initial_resolution"]) == (final, start)
     assert GridConfig(dim=3, **args).lattice(final) == lattice
     kept = get_recipe("grid-forward").override(cells=[4, 3, 1]).sized(forward_views(504, 378)).model.field_args
-    assert kept["cells"] == [4, 3, 1] and kept["resolution"] == 337   # 192 / (3 / 16)^(1/3) + 1 = 336.4: 84 * 4 + 1
+    assert kept["cells"] == [4, 3, 1] and kept["resolution"] == 421   # 240 / (3 / 16)^(1/3) + 1 = 420.3: 105 * 4 + 1
     cube = get_recipe("grid-forward").override(nulls=True, cells=None).sized(forward_views(504, 378)).model.field_args
-    assert cube["cells"] is None and cube["resolution"] == 193        # the cube: 193^3 at most
+    assert cube["cells"] is None and cube["resolution"] == 241        # the cube: 241^3 at most
     probe = get_recipe("grid-forward").override(**LADDER["forward"][0][1]).sized(forward_views(504, 378))
     args = probe.model.field_args                                      # fit --auto's first probe: 97 across
     assert GridConfig(dim=3, **args).lattice(args["resolution"]) == [97, 73, 13]   # 96 * 0.75 + 1, 96 / 8 + 1

@@ -306,15 +306,15 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(time_budget=60.0, lr=0.01, lr_final=0.001, batch_rays=2048, **_BUDGET),
        "instant-ngp's levels and networks with an occupancy grid"),
     _r("grid-forward", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000), tv_weight=1e-4,
-                                       view_dependent=True, tv_color_weight=3e-4),
+                                       view_dependent=False, tv_color_weight=3e-4),
        dict(n_coarse=64, scene="forward", occupancy=dict(enabled=True)),
        dict(time_budget=600.0, lr=0.2, lr_final=0.005, batch_rays=4096, distortion_weight=1e-3, opacity_weight=1e-3,
             **_BUDGET),
        "grid-3d's grid in normalised device coordinates (NeRF's LLFF setting), samples even in disparity and placed "
-       "in occupied space by an occupancy grid; the "
-       "lattice of three vertices to four pixels across and an eighth as many along depth, within 193^3 vertices "
-       "(benchmarks/captures.py: fern/fit)",
-       Sizing(vertices_per_pixel=0.75, max_resolution=193, doublings=2, depth_cells=0.125)),
+       "in occupied space by an occupancy grid; a lattice of a vertex a pixel across and an eighth as many along "
+       "depth, within 241^3 vertices; a colour without view dependence, four floats a vertex where harmonics of "
+       "degree 1 take 13, so the same time buys a finer lattice and more steps (benchmarks/captures.py: fern/fit)",
+       Sizing(vertices_per_pixel=1.0, max_resolution=241, doublings=2, depth_cells=0.125)),
     _r("grid-unbounded", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(300, 1000),
                                          tv_weight=1e-3, view_dependent=True, tv_color_weight=3e-3),
        dict(n_coarse=64, scene="unbounded", occupancy=dict(enabled=True, resolution=64, march_bins=512)),
