@@ -253,8 +253,8 @@ def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, 
     cube = get_recipe("grid-forward").override(nulls=True, cells=None).sized(forward_views(504, 378)).model.field_args
     assert cube["cells"] is None and cube["resolution"] == 241        # the cube: 241^3 at most
     probe = get_recipe("grid-forward").override(**LADDER["forward"][0][1]).sized(forward_views(504, 378))
-    args = probe.model.field_args                                      # fit --auto's first probe: 97 across
-    assert GridConfig(dim=3, **args).lattice(args["resolution"]) == [97, 73, 13]   # 96 * 0.75 + 1, 96 / 8 + 1
+    args = probe.model.field_args                                      # fit --auto's first probe: 129 across
+    assert GridConfig(dim=3, **args).lattice(args["resolution"]) == [129, 97, 17]  # 128 * 0.75 + 1, 128 / 8 + 1
 
 
 def test_a_recipe_is_sized_for_cameras_with_a_lens():

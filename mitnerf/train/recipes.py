@@ -342,7 +342,7 @@ LADDER = {
     3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
     + _FIELDS_3D,
     "forward": [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1, upsample_at=(300, 1000)))
-                for r in (97, 193, 385)] + _FIELDS_3D,
+                for r in (129, 257, 505)] + _FIELDS_3D,
 }
 """``fit --auto``'s candidates per dimension and for forward-facing scenes (a grid's resolution there counts the
 vertices across the images' longer side; its cells follow the images): (family, settings on top of the family's
