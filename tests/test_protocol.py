@@ -257,6 +257,19 @@ def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, 
     assert GridConfig(dim=3, **args).lattice(args["resolution"]) == [129, 97, 17]  # 128 * 0.75 + 1, 128 / 8 + 1
 
 
+def test_fit_autos_largest_grid_probe_is_the_lattice_the_default_recipe_trains():
+    """``fit --auto`` never probes only grids coarser than the default: its largest forward probe is the lattice
+    ``grid-forward`` takes from the fern's 504 x 378 views (505 across), its largest unbounded probe
+    ``grid-unbounded``'s own (193, from 49)."""
+    largest = {scene: max((c[1] for c in LADDER[scene] if c[0] == "grid"), key=lambda a: a["resolution"])
+               for scene in ("forward", "unbounded")}
+    assert largest["forward"]["resolution"] == get_recipe("grid-forward").sized(
+        forward_views(504, 378)).model.field_args["resolution"] == 505
+    args = get_recipe("grid-unbounded").model.field_args
+    assert (largest["unbounded"]["resolution"], largest["unbounded"]["initial_resolution"]) \
+        == (args["resolution"], args["initial_resolution"]) == (193, 49)
+
+
 def test_a_recipe_is_sized_for_cameras_with_a_lens():
     """Sizing reads the focal lengths of any camera (per-frame intrinsics, distortion): the same lattice as the
     pinhole views of the same focal (``views_at(555.5)``: 161, the first row of the table above)."""

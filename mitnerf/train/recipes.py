@@ -344,10 +344,12 @@ LADDER = {
     + _FIELDS_3D,
     "forward": [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1, upsample_at=(300, 1000)))
                 for r in (129, 257, 505)] + _FIELDS_3D,
+    "unbounded": [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1, upsample_at=(300, 1000)))
+                  for r in (49, 97, 193)] + _FIELDS_3D,
 }
-"""``fit --auto``'s candidates per dimension and for forward-facing scenes (a grid's resolution there counts the
-vertices across the images' longer side; its cells follow the images): (family, settings on top of the family's
-recipe), probed smallest first."""
+"""``fit --auto``'s candidates per dimension and for forward-facing and unbounded scenes (a forward grid's
+resolution counts the vertices across the images' longer side; its cells follow the images; the largest grid is
+the scene's default recipe's lattice): (family, settings on top of the family's recipe), probed smallest first."""
 
 SWEEP_SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
          "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
