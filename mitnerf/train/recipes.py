@@ -334,6 +334,13 @@ DEFAULT = {2: "grid-2d", 3: "grid-3d", "forward": "grid-forward", "unbounded": "
 _FIELDS_3D = [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))] \
     + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)] \
     + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))]
+
+
+def _from_a_quarter(*sizes) -> list:
+    """Grids of these resolutions, each from a quarter of it: two doublings, at the steps of the scene's recipe."""
+    return [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1)) for r in sizes]
+
+
 LADDER = {
     2: [("grid", dict(resolution=r, initial_resolution=min(r, 129), upsample_at=(150, 400)))
         for r in (33, 65, 129, 257, 513)]
@@ -342,10 +349,8 @@ LADDER = {
     + [("hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13))],
     3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
     + _FIELDS_3D,
-    "forward": [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1, upsample_at=(300, 1000)))
-                for r in (129, 257, 505)] + _FIELDS_3D,
-    "unbounded": [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1, upsample_at=(300, 1000)))
-                  for r in (49, 97, 193)] + _FIELDS_3D,
+    "forward": _from_a_quarter(129, 257, 505) + _FIELDS_3D,
+    "unbounded": _from_a_quarter(49, 97, 193) + _FIELDS_3D,
 }
 """``fit --auto``'s candidates per dimension and for forward-facing and unbounded scenes (a forward grid's
 resolution counts the vertices across the images' longer side; its cells follow the images; the largest grid is
