@@ -213,3 +213,41 @@ def test_grid_fields_pass_the_backend_checks(field, dim):
     from mitnerf.reference.parity import check_parity
 
     assert check_parity(field, dim, rays=24, samples=12, fine=8 if dim == 2 else 0).ok
+
+
+@pytest.mark.parametrize("oversample", [1, 2])
+def test_a_render_takes_render_oversample_times_the_bins_and_samples_and_training_does_not(oversample):
+    """16 bins over [0, 2] (dt 0.125) and 16 samples, every cell occupied (no update yet), a ray along x from -1: a
+    render samples each bin's centre, t = 0.0625 + 0.125 k, delta 0.125; with ``render_oversample`` 2, 32 bins and
+    32 samples: t = 0.03125 + 0.0625 k, delta 0.0625; the same in the torch twin. A training step keeps 16 bins and
+    16 samples whatever the setting."""
+    import torch
+
+    from mitnerf.reference.render.occupancy import OccupancyGrid as TorchOccupancy
+    from mitnerf.render.pipeline import RenderConfig
+    from mitnerf.train.backend_drjit import build_model
+    from mitnerf.train.backend_torch import build_torch_model
+    from mitnerf.train.config import ModelConfig
+
+    occ = OccupancyConfig(enabled=True, resolution=4, warmup=0, march_bins=16)
+    mc = ModelConfig("grid", dict(resolution=5), RenderConfig(n_coarse=16, occupancy=occ, render_oversample=oversample))
+    n = 16 * oversample
+    want_t = (np.arange(n) + 0.5) * (2.0 / n)
+    model = build_model(mc, 2, 1.0)
+    params = model.init_params(0)
+    o, d = [Float([-1.0]), Float([0.0])], [Float([1.0]), Float([0.0])]
+    grid = OccupancyGrid(occ, 2, 1.0)
+    for training, size in ((False, n), (True, 16)):
+        t, delta = model.render(params, o, d, 0.0, 2.0, UInt32(0), training=training, weights=True,
+                                occupancy=grid.lookup)["samples"]
+        assert dr.width(t) == size
+        np.testing.assert_allclose(np.asarray(delta), 2.0 / size, rtol=1e-6)
+    t, delta = model.render(params, o, d, 0.0, 2.0, UInt32(0), training=False, weights=True,
+                            occupancy=grid.lookup)["samples"]
+    np.testing.assert_allclose(np.asarray(t), want_t, rtol=1e-6)
+    twin = build_torch_model(mc, 2, 1.0)
+    twin.load_numpy(model.to_numpy(params))
+    tt, td = twin.render(torch.tensor([[-1.0, 0.0]]), torch.tensor([[1.0, 0.0]]), 0.0, 2.0, 0, training=False,
+                         weights=True, occupancy=TorchOccupancy(occ, 2, 1.0))["samples"]
+    np.testing.assert_allclose(tt.numpy().ravel(), want_t, rtol=1e-6)
+    np.testing.assert_allclose(td.numpy().ravel(), 2.0 / n, rtol=1e-6)

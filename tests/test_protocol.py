@@ -225,6 +225,31 @@ def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():
     assert GridConfig(dim=3, **args).lattice(321) == [161, 321, 81]
 
 
+def test_the_total_variation_weakens_where_the_views_have_more_pixels_than_the_lattice_vertices():
+    """The box of the test above: 161 x 321 x 81 = 4186161 vertices. 3 views of 2 x 2 pixels keep grid-3d's weights
+    (tv 1e-5, colour 3e-4); 100 views of 160 x 160 (2560000 pixels: 1.6352 vertices a pixel, over 1) keep them too;
+    400 views of 160 x 160 (10240000 pixels: 0.408805 a pixel, under tv_reference 1) scale both by 0.408805 (tv
+    4.08805e-6, colour 1.226415e-4), and a weight set on the recipe stays."""
+    def box_views(n: int, size: int) -> Dataset:
+        poses = np.stack([np.eye(4)] * n)
+        poses[:, 2, 3] = 4.0
+        split = Split(Cameras(poses, 555.5, size, size), np.zeros((n, size, size, 3), np.uint8),
+                      np.zeros((n, size, size), np.uint8))
+        ds = Dataset({"train": split, "test": split}, 2.0, 6.0, {"kind": "3d"})
+        ds.hull_box = (-0.5, -1.0, -0.25, 0.5, 1.0, 0.25)
+        return ds
+
+    def weights(ds, **settings):
+        args = get_recipe("grid-3d").override(**settings).sized(ds).model.field_args
+        return args["tv_weight"], args["tv_color_weight"]
+
+    np.testing.assert_allclose(weights(box_views(3, 2)), (1e-5, 3e-4))
+    np.testing.assert_allclose(weights(box_views(100, 160)), (1e-5, 3e-4))
+    many = box_views(400, 160)
+    np.testing.assert_allclose(weights(many), (4.08805e-6, 1.226415e-4), rtol=1e-5)
+    np.testing.assert_allclose(weights(many, tv_weight=2e-5), (2e-5, 1.226415e-4), rtol=1e-5)
+
+
 def forward_views(width: int, height: int) -> Dataset:
     """One forward-facing view of ``width`` x ``height`` pixels (the sizing reads only its size)."""
     split = Split(Cameras(np.eye(4)[None], 400.0, height, width), np.zeros((1, height, width, 3), np.float32),

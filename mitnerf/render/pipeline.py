@@ -47,6 +47,10 @@ class RenderConfig:
     eval_spp: int = setting(1, lo=1, hi=64)
     """Rays averaged per pixel when evaluating (stratified over the footprint: 2D along the
     view, 3D on a square grid); 1: the pixel centre."""
+    render_oversample: int = setting(1, lo=1, hi=16)
+    """Samples per ray and occupancy bins multiplied by this when a trained field is rendered (evaluation, videos),
+    not in training: a quadrature finer than the one the field was fitted with, so its renders do not show where
+    the training samples fell (``benchmarks/lego.py``)."""
     min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
@@ -160,10 +164,12 @@ class Model(FieldSet):
         bg = tuple(background) if background is not None else cfg.render_background()
         n = dr.width(origins[0])
         near, far = Float(near), Float(far)
+        f = 1 if training else cfg.render_oversample
+        n_coarse = cfg.n_coarse * f
         if occupancy is None or not cfg.occupancy.enabled:
-            sampler = Stratified(cfg.n_coarse, seed, jitter=training, knee=space.knee)
+            sampler = Stratified(n_coarse, seed, jitter=training, knee=space.knee)
         else:
-            sampler = OccupiedSampler(*occupancy, cfg.n_coarse, cfg.occupancy.march_bins,
+            sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins * f,
                                       self.fields["coarse"].bound, cfg.occupancy.resolution, seed, jitter=training,
                                       space=space, grouped=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
@@ -173,7 +179,7 @@ class Model(FieldSet):
                   "fine": None}
         if cfg.n_fine > 0:
             t, delta = sampler.points(n, near, far)
-            sampler = importance_sample(t, delta, result["coarse"].weights, n, cfg.n_coarse, cfg.n_fine, seed,
+            sampler = importance_sample(t, delta, result["coarse"].weights, n, n_coarse, cfg.n_fine, seed,
                                         training)
             g = self.final_field()
             result["fine"] = volume_render(self.fields[g], split_params(params, g), origins, directions, near, far,

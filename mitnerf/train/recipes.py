@@ -17,8 +17,8 @@ from ..settings import field_named
 from .config import ModelConfig, TrainConfig
 
 
-SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells"), "hashlinear": ("resolutions",),
-         "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
+SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "tv_weight", "tv_color_weight"),
+         "hashlinear": ("resolutions",), "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
 """The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
 
 
@@ -44,6 +44,10 @@ class Sizing:
     """Forward-facing scenes (a dense grid in NDC): cells along the depth axis ``z'`` per cell along ``x'``. NDC's
     ``x'`` and ``y'`` span the views' width and height, so the lattice's cells there follow the images' pixels, and
     ``z'``, even in disparity, needs far fewer."""
+    tv_reference: float | None = None
+    """A dense grid's lattice vertices per training pixel at which the recipe's total-variation weights hold; data
+    with fewer (more pixels to pin each vertex) scales both weights down in proportion, as a prior's weight falls
+    with the observations against it (``benchmarks/lego.py``). None: the recipe's weights whatever the data."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
 
@@ -90,10 +94,12 @@ class Recipe:
         :attr:`Sizing.vertices_per_pixel` pixel footprints, about as many in all at most as a cube of
         :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
         occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
-        an occupancy cell per two lattice spacings (up to 128 per axis). In a forward-facing scene (NDC) a dense grid's
-        cells are in the proportions of the training images' width, height and :attr:`Sizing.depth_cells` times the
-        width; the fullest axis takes :attr:`Sizing.vertices_per_pixel` vertices a pixel of the images' longer side,
-        and the occupancy grid keeps the recipe's sizes. A size set on the recipe stays."""
+        an occupancy cell per two lattice spacings (up to 128 per axis); a dense grid's total-variation weights
+        scaled by the lattice's vertices per training pixel (:attr:`Sizing.tv_reference`). In a forward-facing scene
+        (NDC) a dense grid's cells are in the proportions of the training images' width, height and
+        :attr:`Sizing.depth_cells` times the width; the fullest axis takes :attr:`Sizing.vertices_per_pixel`
+        vertices a pixel of the images' longer side, and the occupancy grid keeps the recipe's sizes. A size set on
+        the recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
@@ -125,6 +131,11 @@ class Recipe:
                  "occupancy.resolution": min(128, round((R - 1) * dataset.bound / full)),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
                                                      / full))}
+        if grid and s.tv_reference:
+            shape = [max(2, round((R - 1) * a) + 1) for a in share] if len(share) == dataset.dim else [R] * dataset.dim
+            per_pixel = float(np.prod(shape)) / (len(cams) * cams.width * cams.height)
+            sizes.update({k: args[k] * min(1.0, per_pixel / s.tv_reference) for k in ("tv_weight", "tv_color_weight")
+                          if k in args})
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
             if key not in s.fixed and key in sizes and not (ndc and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
@@ -279,14 +290,16 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "rate"),
     _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-5,
                                   view_dependent=True, tv_color_weight=3e-4),
-       dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256)),
+       dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256), render_oversample=2),
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "the lattice over the box around the views' visual hull where the data has one, as many vertices as a 161^3 "
        "cube at most (the grid's training state grows with them); a high learning rate (a budget of seconds buys few "
        "steps); a density TV ten times and a colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry "
-       "detail, texture and highlights that 2D's weights blur away)",
-       Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0)),
+       "detail, texture and highlights that 2D's weights blur away), both scaled down where the lattice has fewer "
+       "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.26 a pixel); renders "
+       "with twice the samples and bins of training (benchmarks/lego.py)",
+       Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
                                               tv_color_weight=3e-4),

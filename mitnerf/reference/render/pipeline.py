@@ -42,10 +42,12 @@ class Model(nn.Module, FieldSet):
         cfg, seed, space = self.render_cfg, int(np.uint32(seed)), self.render_cfg.space
         bg = cfg.render_background() if background is None else background
         n = origins.shape[0]
+        f = 1 if training else cfg.render_oversample             # render_oversample: as the Dr.Jit pipeline's
         if occupancy is not None and cfg.occupancy.enabled:
-            sampler = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse, seed, training, space)
+            sampler = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse * f, seed, training,
+                                       space, bins=cfg.occupancy.march_bins * f)
         else:
-            sampler = Stratified(cfg.n_coarse, seed, jitter=training, knee=space.knee)
+            sampler = Stratified(cfg.n_coarse * f, seed, jitter=training, knee=space.knee)
         kw = dict(w_min=cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], origins, directions, near, far, sampler,
                                           bg, weights=True, **kw), "fine": None}
