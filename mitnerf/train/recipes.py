@@ -18,7 +18,8 @@ from .config import ModelConfig, TrainConfig
 
 
 SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "tv_weight", "tv_color_weight"),
-         "hashlinear": ("resolutions",), "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
+         "hashlinear": ("resolutions",), "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution"),
+         "train": ("batch_rays",)}
 """The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
 
 
@@ -47,7 +48,8 @@ class Sizing:
     tv_reference: float | None = None
     """A dense grid's lattice vertices per training pixel at which the recipe's total-variation weights hold; data
     with fewer (more pixels to pin each vertex) scales both weights down in proportion, as a prior's weight falls
-    with the observations against it (``benchmarks/lego.py``). None: the recipe's weights whatever the data."""
+    with the observations against it, and a step takes twice the recipe's rays (``benchmarks/lego.py``). None: the
+    recipe's weights and batch whatever the data."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
 
@@ -95,9 +97,9 @@ class Recipe:
         :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
         occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
         an occupancy cell per two lattice spacings (up to 128 per axis); a dense grid's total-variation weights
-        scaled by the lattice's vertices per training pixel (:attr:`Sizing.tv_reference`). In a forward-facing scene
-        (NDC) a dense grid's cells are in the proportions of the training images' width, height and
-        :attr:`Sizing.depth_cells` times the width; the fullest axis takes :attr:`Sizing.vertices_per_pixel`
+        scaled by the lattice's vertices per training pixel, and its batch (:attr:`Sizing.tv_reference`). In a
+        forward-facing scene (NDC) a dense grid's cells are in the proportions of the training images' width, height
+        and :attr:`Sizing.depth_cells` times the width; the fullest axis takes :attr:`Sizing.vertices_per_pixel`
         vertices a pixel of the images' longer side, and the occupancy grid keeps the recipe's sizes. A size set on
         the recipe stays."""
         if self.sizing is None:
@@ -136,6 +138,8 @@ class Recipe:
             per_pixel = float(np.prod(shape)) / (len(cams) * cams.width * cams.height)
             sizes.update({k: args[k] * min(1.0, per_pixel / s.tv_reference) for k in ("tv_weight", "tv_color_weight")
                           if k in args})
+            if per_pixel < s.tv_reference and "batch_rays" not in s.fixed:
+                out.train.batch_rays *= 2
         for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
             if key not in s.fixed and key in sizes and not (ndc and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
@@ -297,8 +301,8 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "cube at most (the grid's training state grows with them); a high learning rate (a budget of seconds buys few "
        "steps); a density TV ten times and a colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry "
        "detail, texture and highlights that 2D's weights blur away), both scaled down where the lattice has fewer "
-       "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.26 a pixel); renders "
-       "with twice the samples and bins of training (benchmarks/lego.py)",
+       "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.26 a pixel), where a "
+       "step also takes twice the rays; renders with twice the samples and bins of training (benchmarks/lego.py)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
