@@ -103,7 +103,8 @@ def table(ds, budget: float, auto: bool, names=None, families=FAMILIES) -> list[
         base = recipe_for(family, ds.dim).override(time_budget=budget, iters=10 ** 6, progress=False)
         done = []
         for name in names or sets:
-            r = base.override(**{k: v for k, v in sets[name].items() if base.has(k)})
+            # only the options that differ: one set on the recipe stays fixed against the data (Sizing.fixed)
+            r = base.override(**{k: v for k, v in sets[name].items() if base.has(k) and base.get(k) != v})
             if r.essence() in done:
                 continue
             done.append(r.essence())
