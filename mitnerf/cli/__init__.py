@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import signal
 import sys
+import traceback
 import warnings
 
 from .._variant import set_variant
@@ -108,12 +110,25 @@ def main(argv: list[str] | None = None) -> int:
     except (MitnerfError, OSError) as exc:
         print(f"mitnerf: error: {os_error_line(exc) if isinstance(exc, OSError) else exc}", file=sys.stderr)
         return 2
-    except Exception:
+    except Exception as exc:
         if not arrived:
             raise
+        _drop_frames(exc)
         return _interrupted(arrived[0] == signal.SIGTERM, "")    # the signal's exception, changed on its way
     except KeyboardInterrupt as exc:
+        _drop_frames(exc)
         return _interrupted(isinstance(exc, Terminated), getattr(exc, "note", ""))
+
+
+def _drop_frames(exc: BaseException) -> None:
+    """Free what the interrupted frames held, unprinted whatever its ``__del__`` raises (an image writer cut off half
+    made cannot close): the interrupt's one line says what happened."""
+    hook, sys.unraisablehook = sys.unraisablehook, lambda info: None
+    try:
+        traceback.clear_frames(exc.__traceback__)
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
 
 
 def _interrupted(term: bool, note: str) -> int:
