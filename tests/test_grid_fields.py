@@ -251,3 +251,6 @@ def test_a_render_takes_render_oversample_times_the_bins_and_samples_and_trainin
                          weights=True, occupancy=TorchOccupancy(occ, 2, 1.0))["samples"]
     np.testing.assert_allclose(tt.numpy().ravel(), want_t, rtol=1e-6)
     np.testing.assert_allclose(td.numpy().ravel(), 2.0 / n, rtol=1e-6)
+    tt, td = twin.render(torch.tensor([[-1.0, 0.0]]), torch.tensor([[1.0, 0.0]]), 0.0, 2.0, 0, training=True,
+                         weights=True, occupancy=TorchOccupancy(occ, 2, 1.0))["samples"]
+    assert tt.numel() == 16 and np.allclose(td.numpy(), 2.0 / 16)

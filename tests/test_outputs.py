@@ -230,6 +230,33 @@ def test_an_interrupted_dataset_says_so_in_one_line_and_leaves_nothing(tmp_path,
     assert "Traceback" not in err and os.listdir(tmp_path) == []
 
 
+def test_an_interrupt_frees_what_its_frames_held_and_prints_none_of_their_del_errors(capsys):
+    """A writer cut off half made (its ``__del__`` fails) in the frames of the interrupt that a later error came
+    from: freed at once, its error unprinted."""
+    from mitnerf.cli import _drop_frames
+
+    deleted = []
+
+    class HalfMade:
+        def __del__(self):
+            deleted.append(True)
+            raise AttributeError("HalfMade has no _to_write")
+
+    def writer():
+        half = HalfMade()  # noqa: F841 (held by this frame)
+        raise KeyboardInterrupt
+
+    try:
+        try:
+            writer()
+        except KeyboardInterrupt:
+            raise RuntimeError("the interrupt, changed on its way") from None
+    except RuntimeError as exc:
+        _drop_frames(exc)
+        assert deleted == [True]
+    assert "_to_write" not in capsys.readouterr().err
+
+
 def test_an_interrupt_python_dropped_still_stops_the_commit(tmp_path, capsys):
     """Python drops an exception raised in a callback (a weak reference's during an import, a ``__del__``): the
     command's handler keeps the signal, and the output is not committed; the dropped exception prints nothing."""

@@ -252,6 +252,13 @@ def test_the_total_variation_weakens_where_the_views_have_more_pixels_than_the_l
     np.testing.assert_allclose(weights(many, tv_weight=2e-5, batch_rays=4096), (2e-5, 1.226415e-4, 4096), rtol=1e-5)
 
 
+def test_a_setting_at_the_recipes_own_value_renames_it_only_where_it_fixes_a_size():
+    """``--batch 8192`` on grid-3d fixes its batch against the data (the lego's would double): grid-3d+; on
+    hashlinear-3d, which sizes no batch, the same run under the same name."""
+    assert get_recipe("grid-3d").override(batch_rays=8192).name == "grid-3d+"
+    assert get_recipe("hashlinear-3d").override(batch_rays=8192, tv_color_weight=3e-4).name == "hashlinear-3d"
+
+
 def forward_views(width: int, height: int) -> Dataset:
     """One forward-facing view of ``width`` x ``height`` pixels (the sizing reads only its size)."""
     split = Split(Cameras(np.eye(4)[None], 400.0, height, width), np.zeros((1, height, width, 3), np.float32),

@@ -125,7 +125,11 @@ def _drop_frames(exc: BaseException) -> None:
     made cannot close): the interrupt's one line says what happened."""
     hook, sys.unraisablehook = sys.unraisablehook, lambda info: None
     try:
-        traceback.clear_frames(exc.__traceback__)
+        seen = set()
+        while exc is not None and id(exc) not in seen:        # the exceptions it was raised from hold frames too
+            seen.add(id(exc))
+            traceback.clear_frames(exc.__traceback__)
+            exc = exc.__cause__ or exc.__context__
         gc.collect()
     finally:
         sys.unraisablehook = hook

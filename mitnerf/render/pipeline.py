@@ -48,9 +48,10 @@ class RenderConfig:
     """Rays averaged per pixel when evaluating (stratified over the footprint: 2D along the
     view, 3D on a square grid); 1: the pixel centre."""
     render_oversample: int = setting(1, lo=1, hi=16)
-    """Samples per ray and occupancy bins multiplied by this when a trained field is rendered (evaluation, videos),
-    not in training: a quadrature finer than the one the field was fitted with, so its renders do not show where
-    the training samples fell (``benchmarks/lego.py``)."""
+    """Coarse samples per ray and occupancy bins multiplied by this when a trained field is rendered (evaluation,
+    videos), not in training: a quadrature finer than the one the field was fitted with, so its renders do not show
+    where the training samples fell (``benchmarks/lego.py``). The fine pass keeps ``n_fine``; pixelNeRF's renderer
+    takes ``n_coarse`` as it is."""
     min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""

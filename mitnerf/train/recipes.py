@@ -18,9 +18,9 @@ from .config import ModelConfig, TrainConfig
 
 
 SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "tv_weight", "tv_color_weight"),
-         "hashlinear": ("resolutions",), "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution"),
-         "train": ("batch_rays",)}
-"""The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
+         "hashlinear": ("resolutions",), "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
+"""The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering (a grid's TV
+weights, and the batch, only where :attr:`Sizing.tv_reference` is set: :meth:`Recipe.sized_keys`)."""
 
 
 @dataclass
@@ -140,7 +140,7 @@ class Recipe:
                           if k in args})
             if per_pixel < s.tv_reference and "batch_rays" not in s.fixed:
                 out.train.batch_rays *= 2
-        for key in SIZES.get(out.model.field, ()) + SIZES["render"]:
+        for key in self.sized_keys():
             if key not in s.fixed and key in sizes and not (ndc and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
                     setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
@@ -167,9 +167,15 @@ class Recipe:
                 setattr(out.model.render.occupancy, sub, value)
             else:
                 out.model.field_args[key] = value
-            if out.sizing is not None and any(key in keys for keys in SIZES.values()):
+            if out.sizing is not None and key in out.sized_keys():
                 out.sizing = dataclasses.replace(out.sizing, fixed=(*out.sizing.fixed, key))
         return out._marked(self)
+
+    def sized_keys(self) -> tuple:
+        """The settings :meth:`sized` derives from the data for this recipe (one set on it stays: ``Sizing.fixed``)."""
+        tv = self.sizing is not None and self.sizing.tv_reference is not None
+        keys = SIZES.get(self.model.field, ()) + SIZES["render"] + (("batch_rays",) if tv else ())
+        return tuple(k for k in keys if tv or not k.startswith("tv_"))
 
     def at_steps(self, steps: int, **settings) -> "Recipe":
         """A copy that trains exactly ``steps`` steps with no time budget (runs compared at equal steps, whatever
