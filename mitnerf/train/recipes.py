@@ -134,18 +134,16 @@ class Recipe:
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
                                                      / full))}
         if grid and s.tv_reference:
-            shape = [max(2, round((R - 1) * a) + 1) for a in share] if len(share) == dataset.dim else [R] * dataset.dim
+            shape = FIELDS["grid"][0](dim=dataset.dim, box=box, cells=cells, bound=dataset.bound).lattice(R)
             per_pixel = float(np.prod(shape)) / (len(cams) * cams.width * cams.height)
             sizes.update({k: args[k] * min(1.0, per_pixel / s.tv_reference) for k in ("tv_weight", "tv_color_weight")
-                          if k in args})
-            if per_pixel < s.tv_reference and "batch_rays" not in s.fixed:
-                out.train.batch_rays *= 2
+                          if k in args}, batch_rays=out.train.batch_rays * (2 if per_pixel < s.tv_reference else 1))
         for key in self.sized_keys():
             if key not in s.fixed and key in sizes and not (ndc and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
                     setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
-                elif key == "n_coarse":
-                    r.n_coarse = sizes[key]
+                elif key in ("n_coarse", "batch_rays"):
+                    setattr(r if key == "n_coarse" else out.train, key, sizes[key])
                 else:
                     args[key] = sizes[key]
         return out
