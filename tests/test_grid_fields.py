@@ -216,11 +216,11 @@ def test_grid_fields_pass_the_backend_checks(field, dim):
 
 
 @pytest.mark.parametrize("oversample", [1, 2])
-def test_a_render_takes_render_oversample_times_the_bins_and_samples_and_training_does_not(oversample):
-    """16 bins over [0, 2] (dt 0.125) and 16 samples, every cell occupied (no update yet), a ray along x from -1: a
-    render samples each bin's centre, t = 0.0625 + 0.125 k, delta 0.125; with ``render_oversample`` 2, 32 bins and
-    32 samples: t = 0.03125 + 0.0625 k, delta 0.0625; the same in the torch twin. A training step keeps 16 bins and
-    16 samples whatever the setting."""
+def test_a_render_takes_render_oversample_times_the_samples_and_training_does_not(oversample):
+    """16 bins over [0, 2] (dt 0.125) and 8 samples, every cell occupied (no update yet), a ray along x from -1: a
+    render groups the 16 occupied bins by 2, one sample at the centre of each group's first bin, t = 0.0625 + 0.25 j,
+    delta 0.25; with ``render_oversample`` 2, 16 samples on the same 16 bins: one a bin, t = 0.0625 + 0.125 k,
+    delta 0.125; the same in the torch twin. A training step keeps 8 samples of 2 bins whatever the setting."""
     import torch
 
     from mitnerf.reference.render.occupancy import OccupancyGrid as TorchOccupancy
@@ -230,14 +230,14 @@ def test_a_render_takes_render_oversample_times_the_bins_and_samples_and_trainin
     from mitnerf.train.config import ModelConfig
 
     occ = OccupancyConfig(enabled=True, resolution=4, warmup=0, march_bins=16)
-    mc = ModelConfig("grid", dict(resolution=5), RenderConfig(n_coarse=16, occupancy=occ, render_oversample=oversample))
-    n = 16 * oversample
-    want_t = (np.arange(n) + 0.5) * (2.0 / n)
+    mc = ModelConfig("grid", dict(resolution=5), RenderConfig(n_coarse=8, occupancy=occ, render_oversample=oversample))
+    n = 8 * oversample
+    want_t = 0.0625 + np.arange(n) * (2.0 / n)
     model = build_model(mc, 2, 1.0)
     params = model.init_params(0)
     o, d = [Float([-1.0]), Float([0.0])], [Float([1.0]), Float([0.0])]
     grid = OccupancyGrid(occ, 2, 1.0)
-    for training, size in ((False, n), (True, 16)):
+    for training, size in ((False, n), (True, 8)):
         t, delta = model.render(params, o, d, 0.0, 2.0, UInt32(0), training=training, weights=True,
                                 occupancy=grid.lookup)["samples"]
         assert dr.width(t) == size
@@ -253,4 +253,4 @@ def test_a_render_takes_render_oversample_times_the_bins_and_samples_and_trainin
     np.testing.assert_allclose(td.numpy().ravel(), 2.0 / n, rtol=1e-6)
     tt, td = twin.render(torch.tensor([[-1.0, 0.0]]), torch.tensor([[1.0, 0.0]]), 0.0, 2.0, 0, training=True,
                          weights=True, occupancy=TorchOccupancy(occ, 2, 1.0))["samples"]
-    assert tt.numel() == 16 and np.allclose(td.numpy(), 2.0 / 16)
+    assert tt.numel() == 8 and np.allclose(td.numpy(), 2.0 / 8)

@@ -54,6 +54,20 @@ def test_an_off_centre_principal_point_and_non_square_pixels_set_the_rays():
         cams.focal
 
 
+def test_rays_turn_with_the_pose_and_the_directions_alone_skip_the_footprint():
+    pose = np.eye(4)
+    pose[:3, :3] = [[0, 0, 1], [0, 1, 0], [-1, 0, 0]]                  # 90 degrees about y: camera -z -> world -x
+    pose[:3, 3] = [1.0, 2.0, 3.0]
+    cams = Cameras(pose[None], 10.0, 4, 6, fy=20.0, cx=4.0, cy=2.0)
+    o, d = cams.rays()
+    # pixel (row 1, column 5) looks along [0.15, 0.025, -1] in camera space (the test above): [-1, 0.025, -0.15] here
+    np.testing.assert_allclose(d[0, 1, 5], np.array([-1, 0.025, -0.15]) / np.linalg.norm([0.15, 0.025, -1]))
+    np.testing.assert_array_equal(o[0, 1, 5], [1.0, 2.0, 3.0])
+    group, local, extent = cams.local_rays(steps=False)
+    assert extent is None
+    np.testing.assert_array_equal(local, cams.local_rays()[1])
+
+
 def test_2d_cameras_keep_their_rays():
     # H = 4, f = 2: row 0 looks along [2, 2 - 0.5] / 2.5 = [0.8, 0.6]; row 3 along [0.8, -0.6]
     _, d = Cameras(np.eye(3)[None], 2.0, 4).rays()

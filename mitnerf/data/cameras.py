@@ -194,19 +194,22 @@ class Cameras:
 
     def camera_directions(self, index=None) -> np.ndarray:
         """Unit pixel-centre directions in camera space of the frames ``index`` (all if None), ``[n, H, W, dim]``."""
-        group, local, _ = self.local_rays()
+        group, local, _ = self.local_rays(steps=False)
         return local[group if index is None else group[index]]
 
-    def local_rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def local_rays(self, steps: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Camera-space rays per group of frames that share intrinsics: ``(group of each frame [n], unit pixel-centre
         directions [g, H, W, dim], each pixel's extent as steps of them [g, H, W, 2, dim])`` (:meth:`footprint`
-        before the rotation)."""
+        before the rotation); without ``steps``, None for the extent (a third of the work)."""
         unique, inverse = self._groups()
-        parts = [self._directions(p, steps=True) for p in unique]
-        norm = [np.linalg.norm(raw, axis=-1) for raw, _ in parts]
-        shape = (len(parts), self.height, self.width)                  # no frames: no groups
-        return (inverse, np.reshape([raw / n[..., None] for (raw, _), n in zip(parts, norm)], (*shape, self.dim)),
-                np.reshape([steps / n[..., None, None] for (_, steps), n in zip(parts, norm)], (*shape, 2, self.dim)))
+        parts = [self._directions(p, steps=True) if steps else (self._directions(p), None) for p in unique]
+        norm = [np.linalg.norm(raw, axis=-1, keepdims=True) for raw, _ in parts]
+        shape = (len(parts), self.height, self.width, self.dim)          # no frames: no groups
+        stack = lambda arrays, shape: np.stack(arrays) if arrays else np.zeros(shape)
+        local = stack([raw / n for (raw, _), n in zip(parts, norm)], shape)
+        extent = stack([s / n[..., None] for (_, s), n in zip(parts, norm)], (*shape[:3], 2, self.dim)) if steps \
+            else None
+        return inverse, local, extent
 
     def depth_stretch(self) -> np.ndarray:
         """``[n]``: the largest distance along a pixel-centre ray per unit of depth along the optical axis (3D: the
@@ -228,9 +231,9 @@ class Cameras:
 
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions of every pixel-centre ray, each ``[n, H, W, dim]``."""
-        group, local, _ = self.local_rays()
+        group, local, _ = self.local_rays(steps=False)
         k = self.dim
-        d = np.einsum("nij,nhwj->nhwi", self.poses[:, :k, :k], local[group])
+        d = np.matmul(local[group], np.swapaxes(self.poses[:, None, :k, :k], -1, -2))       # R d, frame by frame
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
         return np.ascontiguousarray(np.broadcast_to(self.origins[:, None, None, :], d.shape)), d
 

@@ -48,10 +48,11 @@ class RenderConfig:
     """Rays averaged per pixel when evaluating (stratified over the footprint: 2D along the
     view, 3D on a square grid); 1: the pixel centre."""
     render_oversample: int = setting(1, lo=1, hi=16)
-    """Coarse samples per ray and occupancy bins multiplied by this when a trained field is rendered (evaluation,
-    videos), not in training: a quadrature finer than the one the field was fitted with, so its renders do not show
-    where the training samples fell (``benchmarks/lego.py``). The fine pass keeps ``n_fine``; pixelNeRF's renderer
-    takes ``n_coarse`` as it is."""
+    """Coarse samples per ray multiplied by this when a trained field is rendered (evaluation, videos), not in
+    training: where a ray crosses more occupied bins than it has samples, a quadrature finer than the one the field
+    was fitted with, so its renders do not show where the training samples fell (``benchmarks/lego.py``). The
+    occupancy bins stay ``march_bins`` (their lookups are half a render's work, and a ray never has more samples
+    than occupied bins), the fine pass keeps ``n_fine``; pixelNeRF's renderer takes ``n_coarse`` as it is."""
     min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
@@ -170,7 +171,7 @@ class Model(FieldSet):
         if occupancy is None or not cfg.occupancy.enabled:
             sampler = Stratified(n_coarse, seed, jitter=training, knee=space.knee)
         else:
-            sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins * f,
+            sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins,
                                       self.fields["coarse"].bound, cfg.occupancy.resolution, seed, jitter=training,
                                       space=space, grouped=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,

@@ -170,7 +170,7 @@ def edge_rays(dataset: Dataset) -> tuple[np.ndarray, np.ndarray]:
     os, ds = [], []
     for s in dataset.splits.values():
         c = s.cameras
-        group, local, _ = c.local_rays()                               # camera space, per group of intrinsics
+        group, local, _ = c.local_rays(steps=False)                    # camera space, per group of intrinsics
         border = np.zeros((c.height, c.width), bool)
         border[[0, -1], :] = border[:, [0, -1]] = True
         ds.append(np.einsum("nij,nbj->nbi", c.poses[:, :3, :3], local[:, border][group]).reshape(-1, 3))

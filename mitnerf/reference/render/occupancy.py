@@ -56,10 +56,9 @@ class OccupancyGrid:
 
 
 def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int, seed: int, jitter: bool,
-                     space: Space = Space(), bins: int | None = None) -> Explicit:
-    """Twin of ``OccupiedSampler.build``: ``origins, directions [n_rays, D]``; ``bins``: the grid's
-    ``march_bins`` unless given."""
-    bins = bins or grid.cfg.march_bins
+                     space: Space = Space()) -> Explicit:
+    """Twin of ``OccupiedSampler.build``: ``origins, directions [n_rays, D]``."""
+    bins = grid.cfg.march_bins
     n_rays = origins.shape[0]
     near, far = column(near).expand(n_rays, 1), column(far).expand(n_rays, 1)
     dt = (far - near) * (1.0 / bins)

@@ -45,7 +45,7 @@ class Model(nn.Module, FieldSet):
         f = 1 if training else cfg.render_oversample             # render_oversample: as the Dr.Jit pipeline's
         if occupancy is not None and cfg.occupancy.enabled:
             sampler = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse * f, seed, training,
-                                       space, bins=cfg.occupancy.march_bins * f)
+                                       space)
         else:
             sampler = Stratified(cfg.n_coarse * f, seed, jitter=training, knee=space.knee)
         kw = dict(w_min=cfg.min_color_weight, space=space)
