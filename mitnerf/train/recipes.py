@@ -306,7 +306,8 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "steps); a density TV ten times and a colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry "
        "detail, texture and highlights that 2D's weights blur away), both scaled down where the lattice has fewer "
        "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.26 a pixel), where a "
-       "step also takes twice the rays; renders with twice the samples and bins of training (benchmarks/lego.py)",
+       "step also takes twice the rays; renders with twice the samples of training on the same occupancy bins "
+       "(benchmarks/lego.py)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
