@@ -17,10 +17,11 @@ from ..settings import field_named
 from .config import ModelConfig, TrainConfig
 
 
-SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "tv_weight", "tv_color_weight"),
-         "hashlinear": ("resolutions",), "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
-"""The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering (a grid's TV
-weights, and the batch, only where :attr:`Sizing.tv_reference` is set: :meth:`Recipe.sized_keys`)."""
+SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells"), "hashlinear": ("resolutions",),
+         "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
+"""The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
+TV_SIZES = ("tv_weight", "tv_color_weight", "batch_rays")
+"""What it derives too for a dense grid whose sizing has a :attr:`Sizing.tv_reference` (:meth:`Recipe.sized_keys`)."""
 
 
 @dataclass
@@ -133,7 +134,7 @@ class Recipe:
                  "occupancy.resolution": min(128, round((R - 1) * dataset.bound / full)),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
                                                      / full))}
-        if grid and s.tv_reference:
+        if "batch_rays" in self.sized_keys():
             shape = FIELDS["grid"][0](dim=dataset.dim, box=box, cells=cells, bound=dataset.bound).lattice(R)
             per_pixel = float(np.prod(shape)) / (len(cams) * cams.width * cams.height)
             sizes.update({k: args[k] * min(1.0, per_pixel / s.tv_reference) for k in ("tv_weight", "tv_color_weight")
@@ -142,8 +143,10 @@ class Recipe:
             if key not in s.fixed and key in sizes and not (ndc and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
                     setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
-                elif key in ("n_coarse", "batch_rays"):
-                    setattr(r if key == "n_coarse" else out.train, key, sizes[key])
+                elif key == "n_coarse":
+                    r.n_coarse = sizes[key]
+                elif key == "batch_rays":
+                    out.train.batch_rays = sizes[key]
                 else:
                     args[key] = sizes[key]
         return out
@@ -171,9 +174,8 @@ class Recipe:
 
     def sized_keys(self) -> tuple:
         """The settings :meth:`sized` derives from the data for this recipe (one set on it stays: ``Sizing.fixed``)."""
-        tv = self.sizing is not None and self.sizing.tv_reference is not None
-        keys = SIZES.get(self.model.field, ()) + SIZES["render"] + (("batch_rays",) if tv else ())
-        return tuple(k for k in keys if tv or not k.startswith("tv_"))
+        tv = self.model.field == "grid" and self.sizing is not None and self.sizing.tv_reference is not None
+        return SIZES.get(self.model.field, ()) + SIZES["render"] + (TV_SIZES if tv else ())
 
     def at_steps(self, steps: int, **settings) -> "Recipe":
         """A copy that trains exactly ``steps`` steps with no time budget (runs compared at equal steps, whatever
