@@ -10,10 +10,12 @@ evaluation's time and the process's peak memory, read from the run's ``metrics.j
 machine. Part ``800`` (``lego800/upsampled``) fits the same views upsampled twice (nearest, into a temporary
 folder) for :data:`BUDGET_800` seconds: the original 800 x 800 lego's pixel count, so its peak memory and the
 evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure).
+Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto --time-budget 120``: the search's
+probes, what it chose, the chosen recipe's test figures and the whole command's wall time.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 3600 800] [--data ../shared/data/nerf_synthetic/lego_400]
+    python benchmarks/lego.py [--parts 600 3600 800 auto] [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
 from __future__ import annotations
@@ -30,9 +32,11 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "3600", "800")
+PARTS = ("600", "3600", "800", "auto")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
+BUDGET_AUTO = "120"
+"""Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -57,14 +61,16 @@ def upsampled(data: Path, folder: Path) -> Path:
     return folder
 
 
-def fit(data: Path, budget: str, part: str | None = None) -> dict:
-    """``mitnerf fit`` with the time budget and nothing else, in a fresh process: its metrics and its own lines."""
+def fit(data: Path, budget: str, part: str | None = None, *flags: str) -> dict:
+    """``mitnerf fit`` with the time budget and nothing else (but ``flags``), in a fresh process: its metrics and its
+    own lines."""
     out = ROOT / "out" / "lego" / (part or budget)
-    args = ["fit", "--data", str(data), "--time-budget", budget, "--out", str(out)]
+    args = ["fit", "--data", str(data), *flags, "--time-budget", budget, "--out", str(out)]
     lines, wall = mitnerf(*args)
     metrics = json.loads((out / "metrics.json").read_text())
     size = "{} x {}".format(*json.loads((out / "manifest.json").read_text())["dataset"]["size"])
     return {"metrics": metrics, "size": size, "wall": wall, "first": said(lines, "recipe "), "last": lines[-1],
+            "auto": [ln.removeprefix("auto: ") for ln in lines if ln.startswith("auto: ")],
             "command": " ".join(["python -m mitnerf", *args]).replace(str(ROOT) + "/", "").replace(
                 str(ROOT.parent) + "/", "../")}
 
@@ -110,6 +116,16 @@ def main(argv=None) -> int:
             print(f"lego800/upsampled: {line}")
             record_result("lego800/upsampled", v, line, f"python benchmarks/lego.py --parts 800 (runs: {command})",
                           recipe=v["recipe"], threads=TrainConfig().threads)
+            continue
+        if budget == "auto":
+            run = fit(args.data, BUDGET_AUTO, "auto", "--auto")
+            v = dict(values_of(run), search=run["auto"])
+            line = (f"fit --auto with probes of {BUDGET_AUTO} s: {summary(v)}; "
+                    f"{sum(ln.endswith('[size]') for ln in v['search'])} sizes probed, {v['wall_s'] / 60:.1f} min in "
+                    "all (search, training, evaluation)")
+            print(f"lego/auto/{BUDGET_AUTO}: {line}\n    " + "\n    ".join(v["search"]))
+            record_result(f"lego/auto/{BUDGET_AUTO}", v, line, run["command"], recipe=v["recipe"],
+                          threads=TrainConfig().threads)
             continue
         run = fit(args.data, budget)
         v = values_of(run)

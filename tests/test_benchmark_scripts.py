@@ -108,6 +108,31 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     assert "evaluation 41 s (rendering 20 s)" in entry["summary"]             # 0.1 s a view, 200 views
 
 
+def test_lego_auto_records_the_search_and_the_whole_wall_time(results, tmp_path, monkeypatch):
+    """Part auto: ``fit --auto`` with probes of 120 s; the record keeps the probes' lines and counts the sizes."""
+    from benchmarks import lego
+
+    (tmp_path / "transforms_train.json").write_text("{}")
+    seen = []
+    metrics = {"psnr": 27.0, "ssim": 0.9, "train_time": 120.0, "steps": 700, "eval_time": 25.0, "peak_memory": 3.0,
+               "render_time": 0.1, "views": 200, "background": "white", "recipe": "auto:grid-3d"}
+    search = ["grid (...), 64 samples: 53246700 parameters, validation 27.00 dB in 120.0 s [size]",
+              "vanilla (...), 64 samples: 21796 parameters, validation 20.70 dB in 120.0 s [size]",
+              "grid with 53246700 parameters (27.00 dB) is the best of 2 probes"]
+
+    def fake_fit(data, budget, part=None, *flags):
+        seen.append((budget, part, flags))
+        return {"metrics": metrics, "size": "400 x 400", "wall": 540.0, "first": "recipe auto:grid-3d: ...",
+                "last": "test PSNR 27.00 dB", "auto": search, "command": "python -m mitnerf fit --auto"}
+
+    monkeypatch.setattr(lego, "fit", fake_fit)
+    assert lego.main(["--data", str(tmp_path), "--parts", "auto"]) == 0
+    assert seen == [("120", "auto", ("--auto",))]
+    entry = load_results()["lego/auto/120"]
+    assert entry["values"]["search"] == search and entry["values"]["recipe"] == "auto:grid-3d"
+    assert "2 sizes probed, 9.0 min in all" in entry["summary"]
+
+
 def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, tmp_path, monkeypatch):
     """Part 800: every view twice as large, each pixel a 2 x 2 block, its transforms files beside them; the record
     names memory and evaluation time, and its command no temporary folder."""

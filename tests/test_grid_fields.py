@@ -165,6 +165,17 @@ def test_auto_picks_the_smallest_size_near_the_best_probe():
     assert (chosen.params, reached) == (16_000, False) and "none reached 40.0 dB" in why
 
 
+def test_auto_prints_each_probe_with_the_sizes_it_trained():
+    """A probe of the default recipe names the lattice the data sized (225 vertices across), not the recipe's own."""
+    from mitnerf.train.auto import Trial, trial_line
+    from mitnerf.train.recipes import recipe_for
+
+    r = recipe_for("grid", 3)
+    line = trial_line(Trial(r, 10, 28.25, 120.0, "size", r.override(resolution=225, initial_resolution=57)))
+    assert "resolution=225, initial_resolution=57" in line and line.endswith("28.25 dB in 120.0 s [size]"), line
+    assert "resolution=129" in trial_line(Trial(r, 10, 28.25, 120.0, "size"))        # none: the recipe's own
+
+
 def test_auto_switches_an_option_only_where_it_gains_the_threshold():
     from mitnerf.train.auto import switch
 
@@ -197,10 +208,10 @@ def test_auto_keeps_what_the_user_typed():
     from mitnerf.train.auto import AutoConfig, choose_recipe
 
     ds = cached_dataset("square", RigConfig(dim=2, n_train=8, n_val=2, n_test=2, resolution=32, seed=0))
-    # one 20-step probe of the smallest grid (33 vertices a side), then the search budget is spent
+    # one 20-step probe of the default recipe (grid-2d, 257 vertices a side), then the search budget is spent
     cfg = AutoConfig(steps=20, families=("grid",), time_budget=1e-3)
     chosen, reasons = choose_recipe(ds, cfg, {"lr": 0.02, "time_budget": 3.0})
-    assert chosen.model.field == "grid" and chosen.model.field_args["resolution"] == 33, chosen.summary()
+    assert chosen.model.field == "grid" and chosen.model.field_args["resolution"] == 257, chosen.summary()
     assert chosen.model.field_args["view_dependent"] is True            # the recipe's own: never probed
     assert (chosen.train.lr, chosen.train.time_budget) == (0.02, 3.0)
     assert chosen.name == "auto:grid-2d+", chosen.name                    # a modified recipe says so

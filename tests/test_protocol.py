@@ -11,7 +11,7 @@ from mitnerf.data.dataset import Dataset, Split
 from mitnerf.data.rays import background_colors
 from mitnerf.train.evaluate import evaluate
 from mitnerf.train.fit import resolve_background
-from mitnerf.train.recipes import LADDER, get_recipe
+from mitnerf.train.recipes import get_recipe
 
 
 def one_view() -> Split:
@@ -286,22 +286,38 @@ def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, 
     assert kept["cells"] == [4, 3, 1] and kept["resolution"] == 421   # 240 / (3 / 16)^(1/3) + 1 = 420.3: 105 * 4 + 1
     cube = get_recipe("grid-forward").override(nulls=True, cells=None).sized(forward_views(504, 378)).model.field_args
     assert cube["cells"] is None and cube["resolution"] == 241        # the cube: 241^3 at most
-    probe = get_recipe("grid-forward").override(**LADDER["forward"][0][1]).sized(forward_views(504, 378))
-    args = probe.model.field_args                                      # fit --auto's first probe: 129 across
-    assert GridConfig(dim=3, **args).lattice(args["resolution"]) == [129, 97, 17]  # 128 * 0.75 + 1, 128 / 8 + 1
 
 
-def test_fit_autos_largest_grid_probe_is_the_lattice_the_default_recipe_trains():
-    """``fit --auto`` never probes only grids coarser than the default: its largest forward probe is the lattice
-    ``grid-forward`` takes from the fern's 504 x 378 views (505 across), its largest unbounded probe
-    ``grid-unbounded``'s own (193, from 49)."""
-    largest = {scene: max((c[1] for c in LADDER[scene] if c[0] == "grid"), key=lambda a: a["resolution"])
-               for scene in ("forward", "unbounded")}
-    assert largest["forward"]["resolution"] == get_recipe("grid-forward").sized(
-        forward_views(504, 378)).model.field_args["resolution"] == 505
-    args = get_recipe("grid-unbounded").model.field_args
-    assert (largest["unbounded"]["resolution"], largest["unbounded"]["initial_resolution"]) \
-        == (args["resolution"], args["initial_resolution"]) == (193, 49)
+@pytest.mark.parametrize("scene, data, default, probes, views", [
+    # fern's 504 x 378 views: 505 across from 127 (two doublings of 126); 126 // 2 = 63: 253 from 64; 126 // 4 = 31:
+    # 125 from 32, in the cells' proportions 504 : 378 : 63, 94 and 17 vertices (124 * 0.75 + 1, 124 / 8 + 1)
+    ("forward", lambda: forward_views(504, 378), (505, 127), [(125, 32, [125, 94, 17]), (253, 64, [253, 190, 33])],
+     5),                                 # validated on 2^20 pixels: 1048576 // (504 * 378) = 5.5 views
+
+    # grid-unbounded's own 193 from 49 (two doublings of 48): 97 from 25, 49 from 13
+    ("unbounded", lambda: forward_views(504, 378), (193, 49), [(49, 13, [49] * 3), (97, 25, [97] * 3)],
+     5),
+    # an object seen at focal 555.5 (the sizing table above): 161 from 41; 81 from 21, 41 from 11
+    ("object", lambda: views_at(555.5), (161, 41), [(41, 11, [41] * 3), (81, 21, [81] * 3)],
+     1 << 18),                           # views of 2 x 2 pixels: as many as there are, up to 2^20 / 4
+])
+def test_fit_auto_probes_the_default_first_then_its_lattice_with_fewer_spacings(scene, data, default, probes, views):
+    """``fit --auto`` probes the scene's default recipe first, sized from the data (a search cut short by its budget
+    never does worse than none), then that lattice with half and a quarter of its spacings, coarse to fine with the
+    same doublings, whatever the views' size; each probe is scored on about 2^20 pixels of validation views."""
+    from mitnerf.fields.grid import GridConfig
+    from mitnerf.train.auto import AutoConfig, candidates, probe_recipe
+
+    ds, cfg = data(), AutoConfig(scene=scene, families=("grid",))
+    ds = Dataset({**ds.splits, "val": ds["train"]}, ds.near, ds.far, ds.meta)        # the probes validate on it
+    got = candidates(ds, cfg)
+    assert got[0] == ("grid", {})
+    first = probe_recipe(*got[0], ds, cfg).sized(ds).model.field_args
+    assert (first["resolution"], first["initial_resolution"]) == default
+    assert probe_recipe(*got[0], ds, cfg).train.val_views == views
+    sized = [probe_recipe(*c, ds, cfg).sized(ds).model.field_args for c in got[1:]]
+    assert [(a["resolution"], a["initial_resolution"], GridConfig(dim=3, **a).lattice(a["resolution"]))
+            for a in sized] == probes
 
 
 def test_a_recipe_is_sized_for_cameras_with_a_lens():

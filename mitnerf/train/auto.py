@@ -1,9 +1,11 @@
 """Let the data choose the model, from probe runs judged at the budget the model will train for.
 
-:func:`auto_size` trains each of ``LADDER``'s candidates (its family's recipe, options included, with the
-candidate's size) for ``probe_time`` seconds of the clock, so a faster model's extra steps count as they will in
-the real run; the score is validation PSNR. The chosen size is the smallest candidate within ``tolerance`` dB of
-the best probe, or, with ``target_psnr``, the first to reach it. Then half the samples per ray are tried, and
+:func:`auto_size` trains each candidate (:func:`candidates`: the default recipe as the data sizes it, first, so
+that a search the budget cuts short never does worse than no search; then ``LADDER``'s, each its family's recipe,
+options included, with the candidate's size, smallest first) for ``probe_time`` seconds of the clock, so a faster
+model's extra steps count as they will in the real run; the score is PSNR on at most ``val_pixels`` pixels of
+validation views. The chosen size is the smallest candidate within ``tolerance`` dB of the best probe, or, with
+``target_psnr``, the smallest to reach it. Then half the samples per ray are tried, and
 view dependence, the view harmonics' degree (down to 1) and each regulariser are switched the other way from the
 recipe, one at a time: a switch is taken only where it gains ``vd_gain`` / ``reg_gain`` dB of validation PSNR, so
 the recipe's tuned setting stands where a few validation views cannot tell the two apart. The scene is switched
@@ -24,7 +26,7 @@ import numpy as np
 from ..data.dataset import Dataset
 from ..fields import FIELDS, field_config
 from .fit import fit
-from .recipes import LADDER, Recipe, recipe_for
+from .recipes import GRID_DIVISIONS, LADDER, Recipe, recipe_for
 
 OTHER_SCENE = {"forward": "unbounded", "unbounded": "object"}
 """The scene ``fit --auto`` tries against each (an object with alpha has no other)."""
@@ -42,10 +44,13 @@ class AutoConfig:
     tolerance: float = 0.3
     """A candidate within this many dB of the best probe is good enough; the smallest such is chosen."""
     target_psnr: float | None = None
-    """If set, the first candidate (smallest first) to reach this validation PSNR is chosen, and larger
-    ones are not probed."""
+    """If set, the smallest probed candidate to reach this validation PSNR is chosen: after the default, the others
+    run smallest first and the first to reach it ends the search for a size."""
     time_budget: float = 300.0
-    """Seconds for the whole search; past it, the best candidate so far is returned."""
+    """Seconds for the whole search, checked between probes; past it, the best candidate so far is returned."""
+    val_pixels: int = 1 << 20
+    """Pixels of validation views each probe is scored on at most: views evenly spread, at least one (every view
+    of 100 x 100, six of 400 x 400)."""
     families: tuple = ("grid", "vanilla", "hashgrid", "hashlinear")
     """Field families to consider."""
     vd_gain: float = 0.2
@@ -71,6 +76,8 @@ class Trial:
     val_psnr: float
     train_time: float
     note: str = ""
+    trained: Recipe | None = None
+    """The recipe as the probe trained it (sized for the data: what :func:`trial_line` shows); None: ``recipe``."""
 
 
 @dataclass
@@ -113,9 +120,12 @@ def with_validation(dataset: Dataset) -> tuple[Dataset, str]:
 
 def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> Recipe:
     """The family's recipe (its view dependence and losses included) with the candidate's settings, trained for
-    :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on every validation view."""
+    :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on ``cfg.val_pixels`` pixels' worth of
+    ``dataset``'s validation views."""
     base = recipe_for(family, dataset.dim, cfg.scene)
-    kw = dict(args, seed=cfg.seed, val_every=0, val_views=10 ** 6, progress=False)
+    cams = dataset["val"].cameras
+    kw = dict(args, seed=cfg.seed, val_every=0, val_views=max(1, cfg.val_pixels // (cams.width * cams.height)),
+              progress=False)
     if cfg.steps:
         return base.at_steps(cfg.steps, **kw)
     return base.override(**kw, time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)
@@ -126,6 +136,24 @@ def final_params(family: str, args: dict, dim: int) -> int:
     hash grid with all its levels): what its size is judged by."""
     cfg = field_config(family, **args, dim=dim).final()
     return sum(v.size for v in FIELDS[family][1](cfg).init_numpy(0).values())
+
+
+def candidates(dataset: Dataset, cfg: AutoConfig) -> list[tuple[str, dict]]:
+    """``(family, settings)`` of the probes in the order they run: the scene's default recipe as it stands (``{}``:
+    :func:`~.fit.fit` sizes it from the data), then, in 3D, that lattice with :data:`GRID_DIVISIONS` times fewer
+    spacings (coarse to fine with the same doublings), and ``LADDER``'s candidates, smallest (:func:`final_params`,
+    as sized for ``dataset``) first; of ``cfg.families`` only."""
+    default = recipe_for(None, dataset.dim, cfg.scene)
+    family = default.model.field
+    more = list(LADDER[dataset.dim])
+    args = default.sized(dataset).model.field_args
+    if dataset.dim == 3 and "resolution" in args:    # the sized lattice's first spacings, c, divided by k
+        c = (args.get("initial_resolution") or args["resolution"]) - 1
+        more += [(family, dict(resolution=c // k * ((args["resolution"] - 1) // c) + 1, initial_resolution=c // k + 1))
+                 for k in GRID_DIVISIONS]
+    size = lambda c: final_params(c[0], probe_recipe(*c, dataset, cfg).sized(dataset).model.field_args, dataset.dim)
+    rest = sorted((c for c in more if c[0] in cfg.families), key=size)
+    return [(family, {})] * (family in cfg.families) + rest
 
 
 def pick_size(sized: list[Trial], tolerance: float, target: float | None = None) -> tuple[Trial, bool, str]:
@@ -150,8 +178,8 @@ def switch(now: bool, gain: float, need: float) -> tuple[bool, str]:
 
 
 def trial_line(t: Trial) -> str:
-    """One probe as ``fit --auto`` prints it."""
-    r = t.recipe.model
+    """One probe as ``fit --auto`` prints it: the settings it trained with."""
+    r = (t.trained or t.recipe).model
     return (f"{r.field} ({', '.join(f'{k}={v}' for k, v in r.field_args.items())}), {r.render.n_coarse} samples: "
             f"{t.params} parameters, validation {round(t.val_psnr, 2)} dB in {t.train_time:.1f} s [{t.note}]")
 
@@ -162,26 +190,26 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
     t0 = time.perf_counter()
     spent = lambda: time.perf_counter() - t0 > cfg.time_budget
     dataset, held = with_validation(dataset)
-    cands = sorted((c for c in LADDER.get(cfg.scene, LADDER[dataset.dim]) if c[0] in cfg.families),
-                   key=lambda c: final_params(*c, dataset.dim))
+    cands = candidates(dataset, cfg)
     trials: list[Trial] = []
 
     def trial(recipe: Recipe, note: str) -> Trial:
         run = fit(dataset, recipe, "drjit", progress=False)
         val = run.state.history["val_psnr"]
-        trials.append(Trial(recipe, run.backend.n_params(), val[-1] if val else -math.inf, run.state.train_time, note))
+        trials.append(Trial(recipe, run.backend.n_params(), val[-1] if val else -math.inf, run.state.train_time, note,
+                            run.recipe))
         if say is not None:
             say(trial_line(trials[-1]))
         return trials[-1]
 
     sized: list[Trial] = []
-    for family, args in cands:
-        if spent() and sized:                     # at least one candidate, whatever the budget
+    for k, (family, args) in enumerate(cands):
+        if spent() and sized:                     # the default at least, whatever the budget
             break
         sized.append(trial(probe_recipe(family, args, dataset, cfg), "size"))
-        if cfg.target_psnr is not None and sized[-1].val_psnr >= cfg.target_psnr:
+        if k and cfg.target_psnr is not None and sized[-1].val_psnr >= cfg.target_psnr:
             break
-    best, reached, why = pick_size(sized, cfg.tolerance, cfg.target_psnr)
+    best, reached, why = pick_size(sorted(sized, key=lambda t: t.params), cfg.tolerance, cfg.target_psnr)
     reasons = [held] * bool(held) + [f"{best.recipe.model.field} with {best.params} parameters "
                                      f"({best.val_psnr:.2f} dB) is {why}"]
     other = OTHER_SCENE.get(cfg.scene)

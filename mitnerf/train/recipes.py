@@ -355,30 +355,24 @@ DEFAULT = {2: "grid-2d", 3: "grid-3d", "forward": "grid-forward", "unbounded": "
 """The default recipe for data of each dimension, and for forward-facing and unbounded captures (``--scene``)."""
 
 # The sizes the searches try: each a family and settings on top of the family's recipe.
-_FIELDS_3D = [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))] \
-    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)] \
-    + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))]
-
-
-def _from_a_quarter(*sizes) -> list:
-    """Grids of these resolutions, each from a quarter of it: two doublings, at the steps of the scene's recipe."""
-    return [("grid", dict(resolution=r, initial_resolution=(r - 1) // 4 + 1)) for r in sizes]
-
-
 LADDER = {
     2: [("grid", dict(resolution=r, initial_resolution=min(r, 129), upsample_at=(150, 400)))
-        for r in (33, 65, 129, 257, 513)]
+        for r in (33, 65, 129, 513)]
     + [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
     + [("hashgrid", dict(n_levels=8, log2_hashmap_size=T, hidden=16, geo_features=7)) for T in (12, 14)]
     + [("hashlinear", dict(resolutions=(65, 129, 257), dense_levels=2, log2_hashmap_size=13))],
-    3: [("grid", dict(resolution=r, initial_resolution=min(r, 33), upsample_at=(200, 600))) for r in (33, 65, 129)]
-    + _FIELDS_3D,
-    "forward": _from_a_quarter(129, 257, 505) + _FIELDS_3D,
-    "unbounded": _from_a_quarter(49, 97, 193) + _FIELDS_3D,
+    3: [("vanilla", dict(width=64, depth=4, pos_L=8, dir_L=2))]
+    + [("hashgrid", dict(n_levels=12, log2_hashmap_size=T)) for T in (14, 16)]
+    + [("hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=17))],
 }
-"""``fit --auto``'s candidates per dimension and for forward-facing and unbounded scenes (a forward grid's
-resolution counts the vertices across the images' longer side; its cells follow the images; the largest grid is
-the scene's default recipe's lattice): (family, settings on top of the family's recipe), probed smallest first."""
+"""``fit --auto``'s candidates besides the default recipe (which it probes first, sized from the data) and, in 3D,
+the default's lattice with :data:`GRID_DIVISIONS` times fewer spacings: (family, settings on top of the family's
+recipe), probed smallest first."""
+
+GRID_DIVISIONS = (2, 4)
+"""In 3D (an object, a forward-facing or an unbounded scene), ``fit --auto`` also probes the dense grid the default
+recipe sizes from the data with its spacings along the fullest axis divided by each of these: the data's own
+lattice and the coarser ones, whatever the views' size (the lego's 400 x 400 views: 225, 113 and 57 vertices)."""
 
 SWEEP_SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
          "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
