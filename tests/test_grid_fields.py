@@ -216,6 +216,7 @@ def test_auto_keeps_what_the_user_typed():
     assert (chosen.train.lr, chosen.train.time_budget) == (0.02, 3.0)
     assert chosen.name == "auto:grid-2d+", chosen.name                    # a modified recipe says so
     assert any("not tried: the search budget is spent" in r for r in reasons), reasons
+    assert "64 samples per ray not tried: the search budget is spent (kept 128)" in reasons, reasons
 
 
 @pytest.mark.parametrize("field, dim", [("grid", 2), ("grid", 3), ("hashgrid", 2), ("hashgrid", 3), ("hashlinear", 2),

@@ -213,7 +213,9 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
     reasons = [held] * bool(held) + [f"{best.recipe.model.field} with {best.params} parameters "
                                      f"({best.val_psnr:.2f} dB) is {why}"]
     other = OTHER_SCENE.get(cfg.scene)
-    if other is not None and not spent():
+    if other is not None and spent():
+        reasons.append(f"the {other} scene not tried: the search budget is spent (kept the {cfg.scene} scene)")
+    elif other is not None:
         t = trial(best.recipe.override(scene=other), "scene")
         gain = t.val_psnr - best.val_psnr
         take = gain >= cfg.scene_gain
@@ -221,7 +223,10 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
                        f"{gain:+.2f} dB validation PSNR (needs {cfg.scene_gain} dB)")
         best = t if take else best
     samples = best.recipe.model.render.n_coarse // 2          # fewer samples: faster steps, more of them
-    if samples >= 16 and not spent():
+    if samples >= 16 and spent():
+        reasons.append(f"{samples} samples per ray not tried: the search budget is spent (kept "
+                       f"{best.recipe.model.render.n_coarse})")
+    elif samples >= 16:
         t = trial(best.recipe.override(n_coarse=samples), "samples")
         enough = t.val_psnr >= best.val_psnr - 0.1
         reasons.append(f"{samples} samples per ray " + (f"are enough ({t.val_psnr:.2f} dB)" if enough else
