@@ -10,12 +10,14 @@ evaluation's time and the process's peak memory, read from the run's ``metrics.j
 machine. Part ``800`` (``lego800/upsampled``) fits the same views upsampled twice (nearest, into a temporary
 folder) for :data:`BUDGET_800` seconds: the original 800 x 800 lego's pixel count, so its peak memory and the
 evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure).
-Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto --time-budget 120``: the search's
+Part ``resolution`` (``lego_resolution/3600``) scores the field part ``3600`` wrote on the test views at their size and
+box-filtered to 200 x 200: what halving the pixels' size costs this field, read as the drop to expect from 400 x
+400 to the held-back 800 x 800. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto --time-budget 120``: the search's
 probes, what it chose, the chosen recipe's test figures and the whole command's wall time.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 3600 800 auto] [--data ../shared/data/nerf_synthetic/lego_400]
+    python benchmarks/lego.py [--parts 600 3600 800 auto resolution] [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
 from __future__ import annotations
@@ -32,9 +34,11 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "3600", "800", "auto")
+PARTS = ("600", "3600", "800", "auto", "resolution")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
+RUN_3600 = ROOT / "out" / "lego" / "3600"
+"""Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
 ANCHORS = [
@@ -73,6 +77,22 @@ def fit(data: Path, budget: str, part: str | None = None, *flags: str) -> dict:
             "auto": [ln.removeprefix("auto: ") for ln in lines if ln.startswith("auto: ")],
             "command": " ".join(["python -m mitnerf", *args]).replace(str(ROOT) + "/", "").replace(
                 str(ROOT.parent) + "/", "../")}
+
+
+def scored_at_sizes(run: Path, data: Path) -> dict:
+    """The field in ``run`` on every test view of ``data`` at their size and box-filtered twice smaller:
+    ``{downscale: (PSNR, SSIM, size)}``."""
+    from mitnerf.data.formats import load_dataset
+    from mitnerf.train.checkpoint import load_checkpoint
+    from mitnerf.train.evaluate import evaluate
+
+    backend = load_checkpoint(run)[0].backend
+    out = {}
+    for k in (1, 2):
+        ds = load_dataset(data, k)
+        rec = evaluate(backend, ds, "test", geometry_metrics=False)
+        out[k] = (rec.psnr, rec.ssim, "{} x {}".format(ds["test"].cameras.width, ds["test"].cameras.height))
+    return out
 
 
 def values_of(run: dict) -> dict:
@@ -116,6 +136,23 @@ def main(argv=None) -> int:
             print(f"lego800/upsampled: {line}")
             record_result("lego800/upsampled", v, line, f"python benchmarks/lego.py --parts 800 (runs: {command})",
                           recipe=v["recipe"], threads=TrainConfig().threads)
+            continue
+        if budget == "resolution":
+            run = RUN_3600
+            if not (run / "manifest.json").is_file():
+                print(f"lego_resolution: skipped, no fit at {run} (run --parts 3600 first)")
+                continue
+            got = scored_at_sizes(run, args.data)
+            (p1, s1, size1), (p2, s2, size2) = got[1], got[2]
+            v = {"run": "out/lego/3600", "psnr": p1, "ssim": s1, "size": size1, "psnr_half": p2, "ssim_half": s2,
+                 "size_half": size2, "gain_db": p2 - p1}
+            line = (f"the lego/3600 field on the 200 test views: {p1:.2f} dB, SSIM {s1:.3f} at {size1}; "
+                    f"{p2:.2f} dB, SSIM {s2:.3f} box-filtered to {size2} ({p2 - p1:+.2f} dB): halving the pixels' "
+                    f"size costs this lattice about {p2 - p1:.1f} dB, the drop to expect from {size1} to 800 x 800")
+            print(f"lego_resolution/3600: {line}")
+            record_result("lego_resolution/3600", v, line, "python benchmarks/lego.py --parts resolution",
+                          recipe=json.loads((run / "metrics.json").read_text())["recipe"],
+                          threads=TrainConfig().threads)
             continue
         if budget == "auto":
             run = fit(args.data, BUDGET_AUTO, "auto", "--auto")

@@ -133,6 +133,27 @@ def test_lego_auto_records_the_search_and_the_whole_wall_time(results, tmp_path,
     assert "2 sizes probed, 9.0 min in all" in entry["summary"]
 
 
+def test_lego_resolution_scores_the_3600_fit_twice_smaller_and_skips_without_it(results, tmp_path, monkeypatch,
+                                                                                  capsys):
+    from benchmarks import lego
+
+    (tmp_path / "transforms_train.json").write_text("{}")
+    monkeypatch.setattr(lego, "RUN_3600", tmp_path / "absent")
+    assert lego.main(["--data", str(tmp_path), "--parts", "resolution"]) == 0
+    assert "lego_resolution: skipped, no fit at " in capsys.readouterr().out and load_results() == {}
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "manifest.json").write_text("{}")
+    (run / "metrics.json").write_text('{"recipe": "grid-3d+"}')
+    monkeypatch.setattr(lego, "RUN_3600", run)
+    monkeypatch.setattr(lego, "scored_at_sizes", lambda r, data: {1: (30.46, 0.965, "400 x 400"),
+                                                                   2: (32.16, 0.982, "200 x 200")})
+    assert lego.main(["--data", str(tmp_path), "--parts", "resolution"]) == 0
+    entry = load_results()["lego_resolution/3600"]
+    assert abs(entry["values"]["gain_db"] - 1.70) < 1e-9 and entry["recipe"] == "grid-3d+"
+    assert "32.16 dB, SSIM 0.982 box-filtered to 200 x 200 (+1.70 dB)" in entry["summary"]
+
+
 def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, tmp_path, monkeypatch):
     """Part 800: every view twice as large, each pixel a 2 x 2 block, its transforms files beside them; the record
     names memory and evaluation time, and its command no temporary folder."""
