@@ -10,10 +10,11 @@ evaluation's time and the process's peak memory, read from the run's ``metrics.j
 machine. Part ``800`` (``lego800/upsampled``) fits the same views upsampled twice (nearest, into a temporary
 folder) for :data:`BUDGET_800` seconds: the original 800 x 800 lego's pixel count, so its peak memory and the
 evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure).
-Part ``resolution`` (``lego_resolution/3600``) scores the field part ``3600`` wrote on the test views at their size and
-box-filtered to 200 x 200: what halving the pixels' size costs this field, read as the drop to expect from 400 x
-400 to the held-back 800 x 800. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto --time-budget 120``: the search's
-probes, what it chose, the chosen recipe's test figures and the whole command's wall time.
+Part ``resolution`` (``lego_resolution/3600``) scores the field part ``3600`` wrote on the test views at their size
+and box-filtered to 200 x 200: what halving the pixels' size costs this field, read as the drop to expect from
+400 x 400 to the held-back 800 x 800. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto
+--time-budget 120``: the search's probes, what it chose, the chosen recipe's test figures and the whole command's
+wall time.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
@@ -113,7 +114,8 @@ def summary(v: dict) -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
-                   help="which parts to run: budgets in seconds, and 800 (memory and evaluation time at 800 x 800)")
+                   help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
+                        "(fit --auto) and resolution (the 3600 s field on views twice smaller)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():

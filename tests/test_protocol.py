@@ -300,18 +300,22 @@ def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, 
     # an object seen at focal 555.5 (the sizing table above): 161 from 41; 81 from 21, 41 from 11
     ("object", lambda: views_at(555.5), (161, 41), [(41, 11, [41] * 3), (81, 21, [81] * 3)],
      1 << 18),                           # views of 2 x 2 pixels: as many as there are, up to 2^20 / 4
+    # focal 10: 3.3 * 10 / 4 + 1 = 9.25 vertices, 9 from 3; two spacings halved is one: no coarser probe
+    ("object", lambda: views_at(10.0), (9, 3), [], 1 << 18),
 ])
 def test_fit_auto_probes_the_default_first_then_its_lattice_with_fewer_spacings(scene, data, default, probes, views):
     """``fit --auto`` probes the scene's default recipe first, sized from the data (a search cut short by its budget
-    never does worse than none), then that lattice with half and a quarter of its spacings, coarse to fine with the
+    still has it to choose), then that lattice with half and a quarter of its spacings, coarse to fine with the
     same doublings, whatever the views' size; each probe is scored on about 2^20 pixels of validation views."""
     from mitnerf.fields.grid import GridConfig
     from mitnerf.train.auto import AutoConfig, candidates, probe_recipe
 
-    ds, cfg = data(), AutoConfig(scene=scene, families=("grid",))
+    ds, cfg = data(), AutoConfig(scene=scene)
     ds = Dataset({**ds.splits, "val": ds["train"]}, ds.near, ds.far, ds.meta)        # the probes validate on it
     got = candidates(ds, cfg)
-    assert got[0] == ("grid", {})
+    assert got[0] == ("grid", {}) and [c[0] for c in got].count("grid") == 1 + len(probes)
+    got = got[:1 + len(probes)]                                    # the coarser grids next, before other families'
+    assert all(c[0] == "grid" for c in got)
     first = probe_recipe(*got[0], ds, cfg).sized(ds).model.field_args
     assert (first["resolution"], first["initial_resolution"]) == default
     assert probe_recipe(*got[0], ds, cfg).train.val_views == views

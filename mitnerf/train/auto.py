@@ -1,10 +1,10 @@
 """Let the data choose the model, from probe runs judged at the budget the model will train for.
 
 :func:`auto_size` trains each candidate (:func:`candidates`: the default recipe as the data sizes it, first, so
-that a search the budget cuts short never does worse than no search; then ``LADDER``'s, each its family's recipe,
-options included, with the candidate's size, smallest first) for ``probe_time`` seconds of the clock, so a faster
-model's extra steps count as they will in the real run; the score is PSNR on at most ``val_pixels`` pixels of
-validation views. The chosen size is the smallest candidate within ``tolerance`` dB of the best probe, or, with
+that a search the budget cuts short still has it to choose; then, in 3D, its lattice coarser, and ``LADDER``'s,
+each its family's recipe, options included, with the candidate's size, smallest first) for ``probe_time``
+seconds of the clock, so a faster model's extra steps count as they will in the real run; the score is PSNR on at
+most ``val_pixels`` pixels of validation views. The chosen size is the smallest candidate within ``tolerance`` dB of the best probe, or, with
 ``target_psnr``, the smallest to reach it. Then half the samples per ray are tried, and
 view dependence, the view harmonics' degree (down to 1) and each regulariser are switched the other way from the
 recipe, one at a time: a switch is taken only where it gains ``vd_gain`` / ``reg_gain`` dB of validation PSNR, so
@@ -140,20 +140,20 @@ def final_params(family: str, args: dict, dim: int) -> int:
 
 def candidates(dataset: Dataset, cfg: AutoConfig) -> list[tuple[str, dict]]:
     """``(family, settings)`` of the probes in the order they run: the scene's default recipe as it stands (``{}``:
-    :func:`~.fit.fit` sizes it from the data), then, in 3D, that lattice with :data:`GRID_DIVISIONS` times fewer
-    spacings (coarse to fine with the same doublings), and ``LADDER``'s candidates, smallest (:func:`final_params`,
-    as sized for ``dataset``) first; of ``cfg.families`` only."""
+    :func:`~.fit.fit` sizes it from the data); in 3D, that lattice with :data:`GRID_DIVISIONS` times fewer spacings
+    (coarse to fine with the same doublings; none under 3 vertices a side), smallest first; then ``LADDER``'s
+    candidates, smallest (:func:`final_params`, as sized for ``dataset``) first; of ``cfg.families`` only."""
     default = recipe_for(None, dataset.dim, cfg.scene)
     family = default.model.field
-    more = list(LADDER[dataset.dim])
-    args = default.sized(dataset).model.field_args
+    args, coarser = default.sized(dataset).model.field_args, []
     if dataset.dim == 3 and "resolution" in args:    # the sized lattice's first spacings, c, divided by k
         c = (args.get("initial_resolution") or args["resolution"]) - 1
-        more += [(family, dict(resolution=c // k * ((args["resolution"] - 1) // c) + 1, initial_resolution=c // k + 1))
-                 for k in GRID_DIVISIONS]
+        step = (args["resolution"] - 1) // c
+        coarser = [(family, dict(resolution=c // k * step + 1, initial_resolution=c // k + 1))
+                   for k in sorted(GRID_DIVISIONS, reverse=True) if c // k >= 2]
     size = lambda c: final_params(c[0], probe_recipe(*c, dataset, cfg).sized(dataset).model.field_args, dataset.dim)
-    rest = sorted((c for c in more if c[0] in cfg.families), key=size)
-    return [(family, {})] * (family in cfg.families) + rest
+    ours = lambda cands: sorted((c for c in cands if c[0] in cfg.families), key=size)
+    return [(family, {})] * (family in cfg.families) + ours(coarser) + ours(LADDER[dataset.dim])
 
 
 def pick_size(sized: list[Trial], tolerance: float, target: float | None = None) -> tuple[Trial, bool, str]:
@@ -177,11 +177,19 @@ def switch(now: bool, gain: float, need: float) -> tuple[bool, str]:
     return take, ("dropped" if now else "added") if take else ("kept" if now else "left off")
 
 
+def untried(what: str, kept: str) -> str:
+    """The reason line of a probe the spent search budget leaves out."""
+    return f"{what} not tried: the search budget is spent ({kept})"
+
+
 def trial_line(t: Trial) -> str:
     """One probe as ``fit --auto`` prints it: the settings it trained with."""
     r = (t.trained or t.recipe).model
-    return (f"{r.field} ({', '.join(f'{k}={v}' for k, v in r.field_args.items())}), {r.render.n_coarse} samples: "
-            f"{t.params} parameters, validation {round(t.val_psnr, 2)} dB in {t.train_time:.1f} s [{t.note}]")
+    shown = lambda v: (f"{v:.4g}" if isinstance(v, float) else f"({', '.join(map(shown, v))})"
+                       if isinstance(v, tuple) else str(v))
+    args = ", ".join(f"{k}={shown(v)}" for k, v in r.field_args.items())
+    return (f"{r.field} ({args}), {r.render.n_coarse} samples: {t.params} parameters, validation "
+            f"{round(t.val_psnr, 2)} dB in {t.train_time:.1f} s [{t.note}]")
 
 
 def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> AutoResult:
@@ -214,7 +222,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
                                      f"({best.val_psnr:.2f} dB) is {why}"]
     other = OTHER_SCENE.get(cfg.scene)
     if other is not None and spent():
-        reasons.append(f"the {other} scene not tried: the search budget is spent (kept the {cfg.scene} scene)")
+        reasons.append(untried(f"the {other} scene", f"kept the {cfg.scene} scene"))
     elif other is not None:
         t = trial(best.recipe.override(scene=other), "scene")
         gain = t.val_psnr - best.val_psnr
@@ -224,8 +232,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
         best = t if take else best
     samples = best.recipe.model.render.n_coarse // 2          # fewer samples: faster steps, more of them
     if samples >= 16 and spent():
-        reasons.append(f"{samples} samples per ray not tried: the search budget is spent (kept "
-                       f"{best.recipe.model.render.n_coarse})")
+        reasons.append(untried(f"{samples} samples per ray", f"kept {best.recipe.model.render.n_coarse}"))
     elif samples >= 16:
         t = trial(best.recipe.override(n_coarse=samples), "samples")
         enough = t.val_psnr >= best.val_psnr - 0.1
@@ -247,7 +254,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
             new, note = type(on)(0) if now else on, key.replace("view_dependent", "view dependence")
             how = f"switching it {'off' if now else 'on'}"
         if spent():
-            reasons.append(f"{label} not tried: the search budget is spent (left as in the recipe)")
+            reasons.append(untried(label, "left as in the recipe"))
             continue
         t = trial(best.recipe.override(**{key: new}), note)
         gain = t.val_psnr - best.val_psnr
