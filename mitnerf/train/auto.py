@@ -4,8 +4,8 @@
 that a search the budget cuts short still has it to choose; then, in 3D, its lattice coarser, and ``LADDER``'s,
 each its family's recipe, options included, with the candidate's size, smallest first) for ``probe_time``
 seconds of the clock, so a faster model's extra steps count as they will in the real run; the score is PSNR on at
-most ``val_pixels`` pixels of validation views. The chosen size is the smallest candidate within ``tolerance`` dB of the best probe, or, with
-``target_psnr``, the smallest to reach it. Then half the samples per ray are tried, and
+most ``val_pixels`` pixels of validation views. The chosen size is the smallest candidate within ``tolerance`` dB
+of the best probe, or, with ``target_psnr``, the smallest to reach it. Then half the samples per ray are tried, and
 view dependence, the view harmonics' degree (down to 1) and each regulariser are switched the other way from the
 recipe, one at a time: a switch is taken only where it gains ``vd_gain`` / ``reg_gain`` dB of validation PSNR, so
 the recipe's tuned setting stands where a few validation views cannot tell the two apart. The scene is switched
@@ -211,11 +211,11 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
         return trials[-1]
 
     sized: list[Trial] = []
-    for k, (family, args) in enumerate(cands):
+    for family, args in cands:
         if spent() and sized:                     # the default at least, whatever the budget
             break
         sized.append(trial(probe_recipe(family, args, dataset, cfg), "size"))
-        if k and cfg.target_psnr is not None and sized[-1].val_psnr >= cfg.target_psnr:
+        if args and cfg.target_psnr is not None and sized[-1].val_psnr >= cfg.target_psnr:     # not the default
             break
     best, reached, why = pick_size(sorted(sized, key=lambda t: t.params), cfg.tolerance, cfg.target_psnr)
     reasons = [held] * bool(held) + [f"{best.recipe.model.field} with {best.params} parameters "
