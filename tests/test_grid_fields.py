@@ -65,12 +65,36 @@ def test_a_box_lattice_with_uneven_cells_interpolates_its_vertices():
     np.testing.assert_allclose(np.asarray(f.density(big, pts)), want, atol=2e-5)
 
 
+def test_a_refined_density_lattice_has_k_cells_per_colour_cell_and_keeps_its_function():
+    # the box of the test above, density_refine 2: colour 5 x 3 vertices, density 2 (5 - 1) + 1 = 9 by 2 (3 - 1) + 1
+    # = 5; the same linear raw density g = 0.3 x - 0.2 y + 0.1 on the density lattice reads back exactly; resized to
+    # 9 colour vertices a side: colour 9 x 5, density 17 x 9, the function unchanged
+    cfg = GridConfig(dim=2, resolution=5, box=(0, -1, 2, 1), cells=(1, 0.5), density_scale=1.0,
+                     density_activation="relu", bound=2.0, density_refine=2)
+    f = GridField(cfg)
+    assert cfg.density_lattice(5) == [9, 5] and cfg.density_lattice(9) == [17, 9]
+    init = f.init_numpy(0)
+    assert init["density"].shape == (5, 9) and init["color"].shape == (3, 5, 3)
+    X, Y = np.meshgrid(np.linspace(0, 2, 9), np.linspace(-1, 1, 5))
+    params = {"density": Float((0.3 * X - 0.2 * Y + 0.1).ravel().astype(np.float32)),
+              "color": Float(np.zeros(15 * 3, np.float32))}
+    assert f.resolution_of(params) == 5 and f.density_shape_of(params) == [9, 5]
+    pts = [Float([0.75, 1.9, 0.1, -0.5]), Float([0.5, -0.95, 0.0, 0.0])]
+    want = [0.225, 0.3 * 1.9 + 0.2 * 0.95 + 0.1, 0.13, 0.0]
+    np.testing.assert_allclose(np.asarray(f.density(params, pts)), want, atol=2e-5)   # fp32
+    big = f.resize(params, 9)
+    assert dr.width(big["density"]) == 17 * 9 and dr.width(big["color"]) == 9 * 5 * 3
+    assert f.to_numpy(big)["density"].shape == (9, 17) and f.resolution_of(big) == 9
+    np.testing.assert_allclose(np.asarray(f.density(big, pts)), want, atol=2e-5)
+
+
 def test_box_grids_pass_the_backend_checks():
     """A 3D box off centre with uneven cells: every Dr.Jit path against the torch twin and finite differences."""
     from mitnerf.reference.parity import check_parity
 
     box = dict(box=(-1.2, -0.9, -1.0, 1.1, 1.3, 0.8), cells=(1.0, 0.6, 0.8))
     assert check_parity("grid", 3, rays=24, samples=12, fine=0, field_args=box).ok
+    assert check_parity("grid", 3, rays=24, samples=12, fine=0, field_args={**box, "density_refine": 2}).ok
 
 
 def test_occupancy_keeps_every_sample_with_density():

@@ -210,6 +210,20 @@ def test_a_size_set_on_the_recipe_stays():
     assert recipe.model.render.occupancy.march_bins == 117                     # ceil(4 * 64 / 2.2)
 
 
+def test_a_refined_density_keeps_the_floats_of_the_cube_and_samples_its_spacing():
+    """grid-3d with density_refine 2 on the views of the table's first row: a vertex holds 12 colour floats and
+    about 2^3 density ones, so the lattice keeps 13 / 20 of the 161^3 cube's vertices: 161 * 0.65^(1/3) = 139.5 a
+    side, 35 * 4 + 1 = 141 (c rounded); the bins follow the density's spacing, two per lattice spacing:
+    ceil(4 * 2 * 140 / 2.2) = 510, and twice the samples: 128."""
+    recipe = get_recipe("grid-3d").override(density_refine=2).sized(views_at(555.5))
+    args, render = recipe.model.field_args, recipe.model.render
+    assert (args["resolution"], args["initial_resolution"]) == (141, 36)
+    assert (render.occupancy.march_bins, render.n_coarse) == (510, 128)
+    from mitnerf.train.recipes import refined_share
+
+    assert refined_share(recipe.model.field_config(3)) == 13 / 20
+
+
 def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():
     """A box of 1 x 2 x 0.5 (shares 0.5, 1, 0.25: an eighth of its longest side's cube) under the cap of 161^3 vertices:
     its fullest axis gets 160 / 0.5 + 1 = 321 (the views would give 2 / (4 / 555.5) * 1.5 + 1 = 418), so 161 x 321 x

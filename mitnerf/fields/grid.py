@@ -85,6 +85,10 @@ class GridConfig(GridSettings):
     cells: tuple | None = setting(None, lo=0, above=True, hi=1e6)
     """Cells along each axis, relative to one another (``resolution`` counts the vertices of the axis with the most).
     None: in the box's proportions (cubic cells)."""
+    density_refine: int = setting(1, lo=1, hi=4)
+    """Density cells per colour cell along each axis: the density lattice has ``k (n - 1) + 1`` vertices where the
+    colour's has ``n``, so edges and thin parts get ``k`` times finer cells for one float a vertex while the colour
+    (``3 K`` floats a vertex) keeps its lattice."""
 
     def settle(self) -> None:
         """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side; a box has
@@ -120,6 +124,10 @@ class GridConfig(GridSettings):
         lo, hi = self.extent
         share = self.cells or [h - l for l, h in zip(lo, hi)]
         return [max(2, round((res - 1) * s / max(share)) + 1) for s in share]
+
+    def density_lattice(self, res: int) -> list:
+        """Vertices per axis of the density lattice that goes with the colour lattice ``lattice(res)``."""
+        return [self.density_refine * (n - 1) + 1 for n in self.lattice(res)]
 
     def resolution_with(self, n: int) -> int:
         """Vertices along the fullest axis of the lattice with ``n`` vertices in all (at least the D-th root of
@@ -233,30 +241,39 @@ class GridField(LatticeField):
     scattered = True
 
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
-        shape = tuple(self.cfg.lattice(self.cfg.initial_resolution)[::-1])         # numpy order: x last
-        color = np.random.default_rng(seed).normal(0, 0.01, shape + (3 * self.cfg.color_coeffs,)).astype(np.float32)
-        return {"density": np.full(shape, self.cfg.density_init / self.cfg.density_scale, np.float32), "color": color}
+        cfg, res = self.cfg, self.cfg.initial_resolution
+        shape = tuple(cfg.lattice(res)[::-1])         # numpy order: x last
+        color = np.random.default_rng(seed).normal(0, 0.01, shape + (3 * cfg.color_coeffs,)).astype(np.float32)
+        return {"density": np.full(cfg.density_lattice(res)[::-1], cfg.density_init / cfg.density_scale, np.float32),
+                "color": color}
 
     def resolution_of(self, params) -> int:
-        """Vertices along the fullest axis of the lattice ``params`` hold (read from its size)."""
-        return self.cfg.resolution_with(dr.width(params["density"]))
+        """Vertices along the fullest axis of the colour lattice ``params`` hold (read from its size)."""
+        return self.cfg.resolution_with(dr.width(params["color"]) // (3 * self.cfg.color_coeffs))
 
     def shape_of(self, params) -> list:
-        """Vertices per axis of the lattice ``params`` hold, x first."""
+        """Vertices per axis of the colour lattice ``params`` hold, x first."""
         return self.cfg.lattice(self.resolution_of(params))
+
+    def density_shape_of(self, params) -> list:
+        """Vertices per axis of the density lattice ``params`` hold, x first (the colour's, unless refined)."""
+        return self.cfg.density_lattice(self.resolution_of(params))
 
     def to_numpy(self, params) -> dict:
         shape = tuple(self.shape_of(params)[::-1])
-        return {"density": np.asarray(params["density"]).reshape(shape),
+        return {"density": np.asarray(params["density"]).reshape(self.density_shape_of(params)[::-1]),
                 "color": np.asarray(params["color"]).reshape(shape + (3 * self.cfg.color_coeffs,))}
 
     def from_numpy(self, arrays) -> dict:
         return {k: Float(np.asarray(arrays[k], np.float32).ravel()) for k in ("density", "color")}
 
     def _sigma(self, params, x):
-        """Density at ``x``, and the cell corners around it."""
-        corners, inside = corner_weights(list(x), *self.cfg.extent, self.shape_of(params))
+        """Density at ``x``, and the colour lattice's cell corners around it (the density's, unless refined)."""
+        extent = self.cfg.extent
+        corners, inside = corner_weights(list(x), *extent, self.density_shape_of(params))
         raw = interpolate(params["density"], 1, corners)[0] * self.cfg.density_scale
+        if self.cfg.density_refine > 1:
+            corners = corner_weights(list(x), *extent, self.shape_of(params))[0]
         return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
 
     def raw_color(self, params, corners, active=True) -> list:
@@ -266,14 +283,11 @@ class GridField(LatticeField):
         """Resample both grids to the lattice whose fullest axis has ``res`` vertices (coarse to fine)."""
         if res == self.resolution_of(params):
             return params
-        lo, hi = self.cfg.extent
-        axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, self.cfg.lattice(res))]
-        pts = [Float(v.ravel()) for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]]   # x fastest
-        corners, _ = corner_weights(pts, lo, hi, self.shape_of(params))
-        C = 3 * self.cfg.color_coeffs
+        cfg, C = self.cfg, 3 * self.cfg.color_coeffs
         with dr.suspend_grad():
-            dens = interpolate(dr.detach(params["density"]), 1, corners)[0]
-            col = dr.ravel(ArrayXf(interpolate(dr.detach(params["color"]), C, corners)))   # vertex-major
+            dens = resample(dr.detach(params["density"]), 1, cfg.extent, self.density_shape_of(params),
+                            cfg.density_lattice(res))
+            col = resample(dr.detach(params["color"]), C, cfg.extent, self.shape_of(params), cfg.lattice(res))
             dr.eval(dens, col)
         return {"density": dens, "color": col}
 
@@ -288,14 +302,14 @@ class GridField(LatticeField):
         cfg = self.cfg
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
-        shape = self.shape_of(params)
-        step = strides(shape)
-        v = tv_vertices(seed, cfg.tv_samples, int(np.prod(shape)))
-        ok = [(v // s) % n < n - 1 for s, n in zip(step, shape)]      # has a neighbour along each axis
         total = Float(0.0)
-        for name, weight, C in (("density", cfg.tv_weight, 1), ("color", cfg.tv_color_weight, 3 * cfg.color_coeffs)):
+        for name, weight, C, shape in (("density", cfg.tv_weight, 1, self.density_shape_of(params)),
+                                       ("color", cfg.tv_color_weight, 3 * cfg.color_coeffs, self.shape_of(params))):
             if weight <= 0:
                 continue
+            step = strides(shape)
+            v = tv_vertices(seed, cfg.tv_samples, int(np.prod(shape)))
+            ok = [(v // s) % n < n - 1 for s, n in zip(step, shape)]      # has a neighbour along each axis
             per_vertex = Float(0.0)
             for c in range(C):
                 here = dr.gather(Float, params[name], v * C + c)
@@ -304,6 +318,16 @@ class GridField(LatticeField):
                     per_vertex += dr.select(has, dr.square(there - here), 0.0)
             total = total + weight * (cfg.density_scale ** 2 if name == "density" else 1.0) * dr.mean(per_vertex)
         return total
+
+
+def resample(grid: Float, channels: int, extent: tuple, shape: list, new_shape: list) -> Float:
+    """A lattice of ``shape`` vertices over the box ``extent`` (stored vertex-major, ``channels`` floats a vertex)
+    interpolated at the vertices of a lattice of ``new_shape`` over the same box."""
+    lo, hi = extent
+    axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, new_shape)]
+    pts = [Float(v.ravel()) for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]]   # x fastest
+    corners, _ = corner_weights(pts, lo, hi, shape)
+    return dr.ravel(ArrayXf(interpolate(grid, channels, corners)))
 
 
 TV_SALT = 0x2545F491

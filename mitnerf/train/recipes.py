@@ -34,14 +34,16 @@ class Sizing:
     the origin over the focal length): 1, one vertex per pixel."""
     max_resolution: int = 193
     """The finest lattice has at most as many vertices as a cube of this many a side (a box's fullest axis more):
-    a dense grid's memory grows with its vertex count."""
+    a dense grid's memory grows with its vertex count. A refined density lattice (``density_refine``) keeps the
+    floats of that cube's grid, on fewer vertices (:func:`refined_share`)."""
     doublings: int = 2
     """Coarse to fine: the lattice starts this many doublings coarser (the grid's ``initial_resolution``; the linearly
     decoded hash grid's levels, one per doubling)."""
     samples_per_vertex: float = 2.0
-    """Occupancy bins along a ray (the finest sample spacing) per lattice spacing."""
+    """Occupancy bins along a ray (the finest sample spacing) per lattice spacing (per density spacing where the
+    density is refined)."""
     samples: int = 64
-    """Samples per ray (the occupancy sampler's slots)."""
+    """Samples per ray (the occupancy sampler's slots), times ``density_refine`` where the density is refined."""
     depth_cells: float = 0.125
     """Forward-facing scenes (a dense grid in NDC): cells along the depth axis ``z'`` per cell along ``x'``. NDC's
     ``x'`` and ``y'`` span the views' width and height, so the lattice's cells there follow the images' pixels, and
@@ -53,6 +55,17 @@ class Sizing:
     recipe's weights and batch whatever the data."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
+
+
+def refined_share(cfg) -> float:
+    """The share of a dense grid's vertices a lattice may keep when its density is refined, so that it holds the
+    floats of the unrefined one: ``(1 + 3 K) / (k^D + 3 K)`` (``K`` colour coefficients, ``k`` density spacings per
+    colour spacing; 1 unrefined or for other families)."""
+    k = getattr(cfg, "density_refine", 1)
+    if k == 1:
+        return 1.0
+    C = 3 * cfg.color_coeffs
+    return (1 + C) / (k ** cfg.dim + C)
 
 
 @dataclass
@@ -120,19 +133,21 @@ class Recipe:
         extent = [h - l for l, h in zip(box[:dataset.dim], box[dataset.dim:])] if box else [2 * dataset.bound]
         share = [e / max(cells or extent) for e in (cells or extent)]
         full = extent[int(np.argmax(share))] if len(extent) == len(share) else extent[0]   # the fullest axis' length
+        k = int(args.get("density_refine", 1)) if grid else 1      # density spacings per lattice spacing
         if "resolution" in s.fixed or "resolutions" in s.fixed:
             top = args["resolution"] if "resolution" in s.fixed else max(args["resolutions"])
         else:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
             across = max(cams.width, cams.height) if ndc else full / footprint  # pixels along the fullest axis
-            cap = (s.max_resolution - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
+            top_vertices = s.max_resolution * refined_share(out.model.field_config(dataset.dim)) ** (1 / dataset.dim)
+            cap = (top_vertices - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1
         sizes = {"resolution": R, "initial_resolution": c + 1, **({"box": box} if box else {}),
-                 "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
+                 "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples * k,
                  "occupancy.resolution": min(128, round((R - 1) * dataset.bound / full)),
-                 "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * (R - 1)
+                 "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * k * (R - 1)
                                                      / full))}
         if "batch_rays" in self.sized_keys():
             shape = FIELDS["grid"][0](dim=dataset.dim, box=box, cells=cells, bound=dataset.bound).lattice(R)

@@ -53,67 +53,67 @@ def interpolate(grid: torch.Tensor, corners) -> torch.Tensor:
 class GridField(TwinField):
     def __init__(self, cfg: GridConfig):
         super().__init__(cfg)
-        n = int(np.prod(cfg.lattice(cfg.initial_resolution)))
-        self.density_grid = nn.Parameter(torch.zeros(n, 1))
-        self.color_grid = nn.Parameter(torch.zeros(n, 3 * cfg.color_coeffs))
+        res = cfg.initial_resolution
+        self.density_grid = nn.Parameter(torch.zeros(int(np.prod(cfg.density_lattice(res))), 1))
+        self.color_grid = nn.Parameter(torch.zeros(int(np.prod(cfg.lattice(res))), 3 * cfg.color_coeffs))
 
     @property
     def res(self) -> int:
-        """Vertices along the fullest axis (read from the grid's size, as the Dr.Jit field does)."""
-        return self.cfg.resolution_with(self.density_grid.shape[0])
+        """Vertices along the colour lattice's fullest axis (read from its size, as the Dr.Jit field does)."""
+        return self.cfg.resolution_with(self.color_grid.shape[0])
 
     @property
     def shape(self) -> list:
+        """The colour lattice's vertices per axis."""
         return self.cfg.lattice(self.res)
+
+    @property
+    def density_shape(self) -> list:
+        """The density lattice's vertices per axis (the colour's, unless refined)."""
+        return self.cfg.density_lattice(self.res)
 
     def load_numpy(self, arrays) -> None:
         d = torch.as_tensor(np.asarray(arrays["density"], np.float32).reshape(-1, 1))
-        c = torch.as_tensor(np.asarray(arrays["color"], np.float32).reshape(d.shape[0], -1))
+        c = torch.as_tensor(np.asarray(arrays["color"], np.float32).reshape(-1, 3 * self.cfg.color_coeffs))
         self.density_grid, self.color_grid = nn.Parameter(d), nn.Parameter(c)
 
     def to_numpy(self) -> dict:
-        shape = tuple(self.shape[::-1])
-        return {"density": self.density_grid.detach().numpy().reshape(shape),
-                "color": self.color_grid.detach().numpy().reshape(shape + (-1,))}
+        return {"density": self.density_grid.detach().numpy().reshape(self.density_shape[::-1]),
+                "color": self.color_grid.detach().numpy().reshape(tuple(self.shape[::-1]) + (-1,))}
 
     def schedule(self, step: int) -> bool:
         res = self.cfg.resolution_at(step)
         if res == self.res:
             return False
-        lo, hi = self.cfg.extent
-        axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, self.cfg.lattice(res))]
-        pts = np.stack([v.ravel() for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]], 1)
-        corners, _ = corner_weights(torch.from_numpy(pts), lo, hi, self.shape)
+        cfg = self.cfg
         with torch.no_grad():
-            self.density_grid = nn.Parameter(interpolate(self.density_grid, corners))
-            self.color_grid = nn.Parameter(interpolate(self.color_grid, corners))
+            dens = resample(self.density_grid, cfg.extent, self.density_shape, cfg.density_lattice(res))
+            col = resample(self.color_grid, cfg.extent, self.shape, cfg.lattice(res))
+        self.density_grid, self.color_grid = nn.Parameter(dens), nn.Parameter(col)
         return True
 
-    def _sigma(self, corners, inside):
+    def density(self, x):
+        corners, inside = corner_weights(x, *self.cfg.extent, self.density_shape)
         raw = interpolate(self.density_grid, corners)[:, 0] * self.cfg.density_scale
         return torch.where(inside, density_activation(raw, self.cfg.density_activation), torch.zeros_like(raw))
 
-    def density(self, x):
-        corners, inside = corner_weights(x, *self.cfg.extent, self.shape)
-        return self._sigma(corners, inside)
-
     def query(self, x, d):
-        corners, inside = corner_weights(x, *self.cfg.extent, self.shape)
-        sigma = self._sigma(corners, inside)
+        corners, _ = corner_weights(x, *self.cfg.extent, self.shape)
         raw = interpolate(self.color_grid, corners).reshape(-1, 3, self.cfg.color_coeffs)
-        return sigma, harmonic_rgb(raw, d, self.cfg.sh_degree)
+        return self.density(x), harmonic_rgb(raw, d, self.cfg.sh_degree)
 
     def regularizer(self, seed: int):
-        cfg, shape = self.cfg, self.shape
+        cfg = self.cfg
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
-        step = strides(shape)
-        v = tv_vertices(seed, cfg.tv_samples, int(np.prod(shape)))
         total = 0.0
-        for grid, weight, scale in ((self.density_grid, cfg.tv_weight, cfg.density_scale ** 2),
-                                    (self.color_grid, cfg.tv_color_weight, 1.0)):
+        for grid, weight, scale, shape in (
+                (self.density_grid, cfg.tv_weight, cfg.density_scale ** 2, self.density_shape),
+                (self.color_grid, cfg.tv_color_weight, 1.0, self.shape)):
             if weight <= 0:
                 continue
+            step = strides(shape)
+            v = tv_vertices(seed, cfg.tv_samples, int(np.prod(shape)))
             per_vertex = 0.0
             for s, n in zip(step, shape):
                 ok = ((v // s) % n) < n - 1
@@ -121,6 +121,14 @@ class GridField(TwinField):
                 per_vertex = per_vertex + torch.where(ok[:, None], diff * diff, torch.zeros_like(diff)).sum(1)
             total = total + weight * scale * per_vertex.mean()
         return total
+
+
+def resample(grid: torch.Tensor, extent: tuple, shape: list, new_shape: list) -> torch.Tensor:
+    """Twin of :func:`mitnerf.fields.grid.resample`: ``grid [V, C]`` on ``shape`` -> ``[V', C]`` on ``new_shape``."""
+    lo, hi = extent
+    axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, new_shape)]
+    pts = np.stack([v.ravel() for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]], 1)
+    return interpolate(grid, corner_weights(torch.from_numpy(pts), lo, hi, shape)[0])
 
 
 def tv_vertices(seed: int, samples: int, n: int) -> torch.Tensor:
