@@ -219,9 +219,7 @@ def test_a_refined_density_keeps_the_floats_of_the_cube_and_samples_its_spacing(
     args, render = recipe.model.field_args, recipe.model.render
     assert (args["resolution"], args["initial_resolution"]) == (141, 36)
     assert (render.occupancy.march_bins, render.n_coarse) == (510, 128)
-    from mitnerf.train.recipes import refined_share
-
-    assert refined_share(recipe.model.field_config(3)) == 13 / 20
+    assert recipe.model.field_config(3).refined_share == 13 / 20
 
 
 def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():

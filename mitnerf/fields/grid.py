@@ -125,6 +125,13 @@ class GridConfig(GridSettings):
         share = self.cells or [h - l for l, h in zip(lo, hi)]
         return [max(2, round((res - 1) * s / max(share)) + 1) for s in share]
 
+    @property
+    def refined_share(self) -> float:
+        """The share of an unrefined lattice's vertices this grid may keep for the same floats: ``(1 + 3 K) / (k^D +
+        3 K)`` (``K`` colour coefficients, ``k`` = :attr:`density_refine`); 1 unrefined."""
+        C, k = 3 * self.color_coeffs, self.density_refine
+        return (1 + C) / (k ** self.dim + C)
+
     def density_lattice(self, res: int) -> list:
         """Vertices per axis of the density lattice that goes with the colour lattice ``lattice(res)``."""
         return [self.density_refine * (n - 1) + 1 for n in self.lattice(res)]

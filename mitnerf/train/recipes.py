@@ -35,7 +35,7 @@ class Sizing:
     max_resolution: int = 193
     """The finest lattice has at most as many vertices as a cube of this many a side (a box's fullest axis more):
     a dense grid's memory grows with its vertex count. A refined density lattice (``density_refine``) keeps the
-    floats of that cube's grid, on fewer vertices (:func:`refined_share`)."""
+    floats of that cube's grid, on fewer vertices (:attr:`GridConfig.refined_share`)."""
     doublings: int = 2
     """Coarse to fine: the lattice starts this many doublings coarser (the grid's ``initial_resolution``; the linearly
     decoded hash grid's levels, one per doubling)."""
@@ -55,17 +55,6 @@ class Sizing:
     recipe's weights and batch whatever the data."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
-
-
-def refined_share(cfg) -> float:
-    """The share of a dense grid's vertices a lattice may keep when its density is refined, so that it holds the
-    floats of the unrefined one: ``(1 + 3 K) / (k^D + 3 K)`` (``K`` colour coefficients, ``k`` density spacings per
-    colour spacing; 1 unrefined or for other families)."""
-    k = getattr(cfg, "density_refine", 1)
-    if k == 1:
-        return 1.0
-    C = 3 * cfg.color_coeffs
-    return (1 + C) / (k ** cfg.dim + C)
 
 
 @dataclass
@@ -114,8 +103,10 @@ class Recipe:
         scaled by the lattice's vertices per training pixel, and its batch (:attr:`Sizing.tv_reference`). In a
         forward-facing scene (NDC) a dense grid's cells are in the proportions of the training images' width, height
         and :attr:`Sizing.depth_cells` times the width; the fullest axis takes :attr:`Sizing.vertices_per_pixel`
-        vertices a pixel of the images' longer side, and the occupancy grid keeps the recipe's sizes. A size set on
-        the recipe stays."""
+        vertices a pixel of the images' longer side, and the occupancy grid keeps the recipe's sizes. A grid whose
+        density is refined (``density_refine`` k) keeps the cap's floats on fewer vertices
+        (:attr:`GridConfig.refined_share`), with k bins a lattice spacing and k times the samples. A size set on the
+        recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
@@ -139,7 +130,8 @@ class Recipe:
         else:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
             across = max(cams.width, cams.height) if ndc else full / footprint  # pixels along the fullest axis
-            top_vertices = s.max_resolution * refined_share(out.model.field_config(dataset.dim)) ** (1 / dataset.dim)
+            kept = out.model.field_config(dataset.dim).refined_share if k > 1 else 1.0
+            top_vertices = s.max_resolution * kept ** (1 / dataset.dim)
             cap = (top_vertices - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
