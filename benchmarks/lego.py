@@ -15,7 +15,8 @@ and box-filtered to 200 x 200: what halving the pixels' size costs this field, r
 400 x 400 to the held-back 800 x 800. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto
 --time-budget 120``: the search's probes, what it chose, the chosen recipe's test figures and the whole command's
 wall time. Part ``refine`` (``lego/refine/3600``) runs part ``3600``'s command with ``--set density_refine=2``: the
-density on a lattice twice as fine as the colour's, in the floats of the default grid (fewer colour vertices).
+density on a lattice twice as fine as the colour's, in the floats of the default grid (fewer colour vertices); it
+is another hour, so it runs only when named.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
@@ -117,10 +118,10 @@ def summary(v: dict) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
+    p.add_argument("--parts", nargs="+", choices=PARTS, default=[q for q in PARTS if q != "refine"],
                    help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
                         "(fit --auto), resolution (the 3600 s field on views twice smaller) and refine (part 3600 with "
-                        "the density twice as fine as the colour)")
+                        "the density twice as fine as the colour; another hour, run only when named)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():

@@ -88,6 +88,34 @@ def test_a_refined_density_lattice_has_k_cells_per_colour_cell_and_keeps_its_fun
     np.testing.assert_allclose(np.asarray(f.density(big, pts)), want, atol=2e-5)
 
 
+def test_a_refined_grid_resizes_as_its_twin_and_refuses_what_fits_no_lattice():
+    """The box of the parity test below, density_refine 2, from 5 to 9 colour vertices a side: both engines
+    resample both lattices to the same values; a density array of the wrong size, a colour one that is not whole
+    vertices, and a density lattice over 1025 a side are refused, each with its fix."""
+    torch = pytest.importorskip("torch")
+    from mitnerf.errors import CheckpointError, ConfigError
+    from mitnerf.reference.fields.grid import GridField as TwinGrid
+
+    cfg = GridConfig(dim=3, resolution=9, initial_resolution=5, upsample_at=(1,), view_dependent=True,
+                     box=(-1.2, -0.9, -1.0, 1.1, 1.3, 0.8), cells=(1.0, 0.6, 0.8), density_refine=2)
+    f, twin = GridField(cfg), TwinGrid(cfg)
+    rng = np.random.default_rng(3)
+    arrays = {k: rng.normal(size=v.shape).astype(np.float32) for k, v in f.init_numpy(0).items()}
+    big = f.to_numpy(f.schedule(1, f.from_numpy(arrays)))
+    twin.load_numpy(arrays)
+    assert twin.schedule(1) and not twin.schedule(1)
+    for k, v in twin.to_numpy().items():
+        assert big[k].shape == v.shape
+        np.testing.assert_allclose(big[k], v, atol=1e-6)
+    assert big["density"].shape[::-1] == tuple(2 * (n - 1) + 1 for n in cfg.lattice(9))
+    with pytest.raises(CheckpointError, match="another configuration"):
+        f.resolution_of(f.from_numpy({**arrays, "density": arrays["density"][:-1]}))
+    with pytest.raises(CheckpointError, match="another configuration"):
+        f.resolution_of(f.from_numpy({**arrays, "color": arrays["color"].ravel()[:-1]}))
+    with pytest.raises(ConfigError, match="choose a smaller density_refine"):
+        GridConfig(dim=3, resolution=513, density_refine=3)
+
+
 def test_box_grids_pass_the_backend_checks():
     """A 3D box off centre with uneven cells: every Dr.Jit path against the torch twin and finite differences."""
     from mitnerf.reference.parity import check_parity

@@ -33,7 +33,8 @@ def test_a_sampled_step_takes_consecutive_distinct_vertices():
 BOX = dict(box=(-1.0, -0.5, -1.5, 1.0, 0.5, 0.5), cells=(1.0, 0.5, 0.75))     # 9 x 5 x 7 vertices
 
 
-@pytest.mark.parametrize("dim, samples, box", [(2, 0, {}), (2, 40, {}), (3, 100, {}), (3, 60, BOX)])
+@pytest.mark.parametrize("dim, samples, box", [(2, 0, {}), (2, 40, {}), (3, 100, {}), (3, 60, BOX),
+                                               (3, 60, {**BOX, "density_refine": 2})])
 def test_total_variation_twin_agrees(dim, samples, box):
     # the same random grids in both engines, the same step seed: equal value and equal gradients
     torch = pytest.importorskip("torch")

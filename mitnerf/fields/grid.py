@@ -9,7 +9,9 @@ cell, as in Plenoxels and DVGO. Outside the box the density is 0. Every operatio
 the field is traceable (it runs inside the fused march); where the integral does not use a sample's colour
 (``keep``), only the density is read (one channel per corner instead of 1 + 3 x the colour's coefficients), so
 empty space and the inside of a surface cost that much less in the primal and the adjoint
-(``benchmarks/grid_step.py``). Twin: :mod:`mitnerf.reference.fields.grid`.
+(``benchmarks/grid_step.py``). With ``density_refine`` k the density has a lattice of its own, k times finer than
+the colour's over the same box, so edges and thin parts get finer cells for one float a vertex
+(``benchmarks/lego.py --parts refine``). Twin: :mod:`mitnerf.reference.fields.grid`.
 """
 
 from __future__ import annotations
@@ -64,8 +66,8 @@ class GridConfig(GridSettings):
     """A dense grid of density and colour."""
 
     resolution: int = setting(256, lo=2, hi=8193, flag="--grid-resolution")
-    """Vertices along the lattice's fullest axis at the end of training (the other axes follow ``cells`` or the
-    box; up to 8193 in 2D, 513 in 3D)."""
+    """Vertices along the (colour) lattice's fullest axis at the end of training (the other axes follow ``cells`` or
+    the box; up to 8193 in 2D, 513 in 3D); a refined density has ``density_refine (R - 1) + 1``."""
     initial_resolution: int | None = setting(None, lo=2, hi=8193)
     """Vertices per axis at the start (coarse to fine); None: ``resolution``."""
     upsample_at: tuple = setting((), lo=1, hi=1e9)
@@ -77,7 +79,8 @@ class GridConfig(GridSettings):
     tv_color_weight: float = setting(0.0, lo=0, hi=1e9)
     """Total-variation weight on the colour grid."""
     tv_samples: int = setting(65536, lo=0, hi=1 << 26)
-    """Vertices per step for the total variation, consecutive from a random start (0: the whole grid)."""
+    """Vertices per step and array (density, colour) for the total variation, consecutive from a random start (0: the
+    whole grid)."""
     box: tuple | None = setting(None, lo=-1e6, hi=1e6)
     """The lattice's extent ``(lo_x, lo_y[, lo_z], hi_x, hi_y[, hi_z])`` in the field's coordinates; the density is 0
     outside it. None: the cube ``[-bound, bound]^D``. A sized recipe sets it from the data (the box around the
@@ -87,12 +90,15 @@ class GridConfig(GridSettings):
     None: in the box's proportions (cubic cells)."""
     density_refine: int = setting(1, lo=1, hi=4)
     """Density cells per colour cell along each axis: the density lattice has ``k (n - 1) + 1`` vertices where the
-    colour's has ``n``, so edges and thin parts get ``k`` times finer cells for one float a vertex while the colour
-    (``3 K`` floats a vertex) keeps its lattice."""
+    colour's has ``n``, so edges and thin parts get ``k`` times finer cells for one float a vertex (the colour has
+    ``3 K``). A sized recipe keeps the unrefined grid's floats, on fewer colour vertices (:attr:`refined_share`).
+    ``tv_weight`` stays as written: on k times finer spacings neighbours differ about k^2 less, so the density's
+    total variation smooths less."""
 
     def settle(self) -> None:
-        """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side; a box has
-        ``2 D`` bounds, each low one below its high one, and ``cells`` one positive share per axis."""
+        """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side (a refined
+        density 1025); a box has ``2 D`` bounds, each low one below its high one, and ``cells`` one positive share per
+        axis."""
         if self.initial_resolution is None:
             self.initial_resolution = self.resolution
         top = 8193 if self.dim == 2 else 513
@@ -100,6 +106,11 @@ class GridConfig(GridSettings):
             if getattr(self, name) > top:
                 raise ConfigError(f"{'--grid-resolution' if name == 'resolution' else '--set ' + name} "
                                   f"{getattr(self, name)}: a {self.dim}D grid has at most {top} vertices a side")
+        fine = self.density_refine * (max(self.resolution, self.initial_resolution) - 1) + 1
+        if fine > 2 * top - 1:
+            raise ConfigError(f"--set density_refine={self.density_refine}: the density lattice would have {fine} "
+                              f"vertices a side, and a {self.dim}D one has at most {2 * top - 1}; choose a smaller "
+                              "density_refine or --grid-resolution")
         D = self.dim
         if self.box is not None:
             self.box = tuple(float(v) for v in self.box)
@@ -135,6 +146,17 @@ class GridConfig(GridSettings):
     def density_lattice(self, res: int) -> list:
         """Vertices per axis of the density lattice that goes with the colour lattice ``lattice(res)``."""
         return [self.density_refine * (n - 1) + 1 for n in self.lattice(res)]
+
+    def resolution_of_sizes(self, n_density: int, n_color: int) -> int:
+        """The colour lattice's fullest axis of a grid with ``n_density`` density floats and ``n_color`` colour ones
+        (:meth:`resolution_with`); sizes that fit no lattice of this config are refused."""
+        C = 3 * self.color_coeffs
+        res = self.resolution_with(n_color // C) if n_color % C == 0 else None
+        if res is None or int(np.prod(self.density_lattice(res))) != n_density:
+            raise CheckpointError(f"a grid of {n_density} density and {n_color} colour values fits no lattice of this "
+                                  "box, cells, view dependence and density_refine; the weights were saved with another "
+                                  "configuration")
+        return res
 
     def resolution_with(self, n: int) -> int:
         """Vertices along the fullest axis of the lattice with ``n`` vertices in all (at least the D-th root of
@@ -255,8 +277,9 @@ class GridField(LatticeField):
                 "color": color}
 
     def resolution_of(self, params) -> int:
-        """Vertices along the fullest axis of the colour lattice ``params`` hold (read from its size)."""
-        return self.cfg.resolution_with(dr.width(params["color"]) // (3 * self.cfg.color_coeffs))
+        """Vertices along the fullest axis of the colour lattice ``params`` hold (read from its size; the density's
+        size checked against it)."""
+        return self.cfg.resolution_of_sizes(dr.width(params["density"]), dr.width(params["color"]))
 
     def shape_of(self, params) -> list:
         """Vertices per axis of the colour lattice ``params`` hold, x first."""
@@ -275,7 +298,8 @@ class GridField(LatticeField):
         return {k: Float(np.asarray(arrays[k], np.float32).ravel()) for k in ("density", "color")}
 
     def _sigma(self, params, x):
-        """Density at ``x``, and the colour lattice's cell corners around it (the density's, unless refined)."""
+        """Density at ``x``, and the colour lattice's cell corners around it (the density's when ``density_refine`` is
+        1)."""
         extent = self.cfg.extent
         corners, inside = corner_weights(list(x), *extent, self.density_shape_of(params))
         raw = interpolate(params["density"], 1, corners)[0] * self.cfg.density_scale
@@ -287,7 +311,7 @@ class GridField(LatticeField):
         return interpolate(params["color"], 3 * self.cfg.color_coeffs, corners, active)
 
     def resize(self, params, res: int) -> dict:
-        """Resample both grids to the lattice whose fullest axis has ``res`` vertices (coarse to fine)."""
+        """Resample the colour to ``lattice(res)`` and the density to ``density_lattice(res)`` (coarse to fine)."""
         if res == self.resolution_of(params):
             return params
         cfg, C = self.cfg, 3 * self.cfg.color_coeffs

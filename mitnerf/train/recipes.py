@@ -105,8 +105,8 @@ class Recipe:
         and :attr:`Sizing.depth_cells` times the width; the fullest axis takes :attr:`Sizing.vertices_per_pixel`
         vertices a pixel of the images' longer side, and the occupancy grid keeps the recipe's sizes. A grid whose
         density is refined (``density_refine`` k) keeps the cap's floats on fewer vertices
-        (:attr:`GridConfig.refined_share`), with k bins a lattice spacing and k times the samples. A size set on the
-        recipe stays."""
+        (:attr:`GridConfig.refined_share`), with :attr:`Sizing.samples_per_vertex` bins a density spacing and k times
+        the samples. A size set on the recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
@@ -132,7 +132,7 @@ class Recipe:
             across = max(cams.width, cams.height) if ndc else full / footprint  # pixels along the fullest axis
             kept = out.model.field_config(dataset.dim).refined_share if k > 1 else 1.0
             top_vertices = s.max_resolution * kept ** (1 / dataset.dim)
-            cap = (top_vertices - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # max_resolution^D vertices
+            cap = (top_vertices - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # top_vertices^D in all
             top = min(across * s.vertices_per_pixel + 1, cap, 513)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1

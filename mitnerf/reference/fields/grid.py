@@ -60,7 +60,7 @@ class GridField(TwinField):
     @property
     def res(self) -> int:
         """Vertices along the colour lattice's fullest axis (read from its size, as the Dr.Jit field does)."""
-        return self.cfg.resolution_with(self.color_grid.shape[0])
+        return self.cfg.resolution_of_sizes(self.density_grid.numel(), self.color_grid.numel())
 
     @property
     def shape(self) -> list:
