@@ -300,11 +300,11 @@ class GridField(LatticeField):
     def _sigma(self, params, x):
         """Density at ``x``, and the colour lattice's cell corners around it (the density's when ``density_refine`` is
         1)."""
-        extent = self.cfg.extent
-        corners, inside = corner_weights(list(x), *extent, self.density_shape_of(params))
-        raw = interpolate(params["density"], 1, corners)[0] * self.cfg.density_scale
-        if self.cfg.density_refine > 1:
-            corners = corner_weights(list(x), *extent, self.shape_of(params))[0]
+        cfg, res = self.cfg, self.resolution_of(params)
+        corners, inside = corner_weights(list(x), *cfg.extent, cfg.density_lattice(res))
+        raw = interpolate(params["density"], 1, corners)[0] * cfg.density_scale
+        if cfg.density_refine > 1:
+            corners = corner_weights(list(x), *cfg.extent, cfg.lattice(res))[0]
         return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
 
     def raw_color(self, params, corners, active=True) -> list:
@@ -351,13 +351,18 @@ class GridField(LatticeField):
         return total
 
 
+def lattice_points(extent: tuple, shape: list) -> np.ndarray:
+    """The vertices of a lattice of ``shape`` over the box ``extent`` in storage order (x fastest): ``[V, D]``
+    float32 (both engines' :func:`resample`)."""
+    axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(*extent, shape)]
+    return np.stack([v.ravel() for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]], 1)
+
+
 def resample(grid: Float, channels: int, extent: tuple, shape: list, new_shape: list) -> Float:
     """A lattice of ``shape`` vertices over the box ``extent`` (stored vertex-major, ``channels`` floats a vertex)
     interpolated at the vertices of a lattice of ``new_shape`` over the same box."""
-    lo, hi = extent
-    axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, new_shape)]
-    pts = [Float(v.ravel()) for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]]   # x fastest
-    corners, _ = corner_weights(pts, lo, hi, shape)
+    pts = lattice_points(extent, new_shape)
+    corners, _ = corner_weights([Float(np.ascontiguousarray(c)) for c in pts.T], *extent, shape)
     return dr.ravel(ArrayXf(interpolate(grid, channels, corners)))
 
 

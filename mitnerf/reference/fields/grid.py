@@ -7,7 +7,7 @@ import torch
 from torch import nn
 
 from ...fields.base import cell_corners
-from ...fields.grid import TV_SALT, GridConfig, strides, view_basis
+from ...fields.grid import TV_SALT, GridConfig, lattice_points, strides, view_basis
 from ...rng import batch_indices
 from .mlp import TwinField, density_activation
 
@@ -125,10 +125,7 @@ class GridField(TwinField):
 
 def resample(grid: torch.Tensor, extent: tuple, shape: list, new_shape: list) -> torch.Tensor:
     """Twin of :func:`mitnerf.fields.grid.resample`: ``grid [V, C]`` on ``shape`` -> ``[V', C]`` on ``new_shape``."""
-    lo, hi = extent
-    axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(lo, hi, new_shape)]
-    pts = np.stack([v.ravel() for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]], 1)
-    return interpolate(grid, corner_weights(torch.from_numpy(pts), lo, hi, shape)[0])
+    return interpolate(grid, corner_weights(torch.from_numpy(lattice_points(extent, new_shape)), *extent, shape)[0])
 
 
 def tv_vertices(seed: int, samples: int, n: int) -> torch.Tensor:
