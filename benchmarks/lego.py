@@ -14,13 +14,14 @@ Part ``resolution`` (``lego_resolution/3600``) scores the field part ``3600`` wr
 and box-filtered to 200 x 200: what halving the pixels' size costs this field, read as the drop to expect from
 400 x 400 to the held-back 800 x 800. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto
 --time-budget 120``: the search's probes, what it chose, the chosen recipe's test figures and the whole command's
-wall time. Part ``refine`` (``lego/refine/3600``) runs part ``3600``'s command with ``--set density_refine=2``: the
-density on a lattice twice as fine as the colour's, in the floats of the default grid (fewer colour vertices); it
-is another hour, so it runs only when named.
+wall time. The default recipe takes the lego's density on a lattice twice as fine as its colour's
+(``Sizing.density_refine``); part ``single`` (``lego/single/600``) runs part ``600``'s command with ``--set
+density_refine=1``, one lattice for both in the same floats (more colour vertices): what that choice is measured
+against.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 3600 800 auto resolution refine]
+    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -38,15 +39,15 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "3600", "800", "auto", "resolution", "refine")
+PARTS = ("600", "800", "3600", "resolution", "auto", "single")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
 """Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
-BUDGET_REFINE = "3600"
-"""Seconds of training of part ``refine``: the refined density against part ``3600``'s default."""
+BUDGET_SINGLE = "600"
+"""Seconds of training of part ``single``: one lattice for density and colour, against part ``600``'s default."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -118,10 +119,10 @@ def summary(v: dict) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--parts", nargs="+", choices=PARTS, default=[q for q in PARTS if q != "refine"],
+    p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                    help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
-                        "(fit --auto), resolution (the 3600 s field on views twice smaller) and refine (part 3600 with "
-                        "the density twice as fine as the colour; another hour, run only when named)")
+                        "(fit --auto), resolution (the 3600 s field on views twice smaller) and single (part 600 with "
+                        "one lattice for density and colour)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -172,11 +173,11 @@ def main(argv=None) -> int:
             record_result(f"lego/auto/{BUDGET_AUTO}", v, line, run["command"], recipe=v["recipe"],
                           threads=TrainConfig().threads)
             continue
-        if budget == "refine":
-            run = fit(args.data, BUDGET_REFINE, f"refine-{BUDGET_REFINE}", "--set", "density_refine=2")
+        if budget == "single":
+            run = fit(args.data, BUDGET_SINGLE, f"single-{BUDGET_SINGLE}", "--set", "density_refine=1")
             v = values_of(run)
-            print(f"lego/refine/{BUDGET_REFINE}: {summary(v)}\n    {run['first']}")
-            record_result(f"lego/refine/{BUDGET_REFINE}", v, summary(v), run["command"], recipe=v["recipe"],
+            print(f"lego/single/{BUDGET_SINGLE}: {summary(v)}\n    {run['first']}")
+            record_result(f"lego/single/{BUDGET_SINGLE}", v, summary(v), run["command"], recipe=v["recipe"],
                           threads=TrainConfig().threads)
             continue
         run = fit(args.data, budget)

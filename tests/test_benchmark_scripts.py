@@ -108,28 +108,28 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
     assert "evaluation 41 s (rendering 20 s)" in entry["summary"]             # 0.1 s a view, 200 views
 
 
-def test_lego_refine_runs_the_3600_command_with_the_density_refined(results, tmp_path, monkeypatch):
-    """Part refine: part 3600's fit with ``--set density_refine=2``, in its own folder, recorded beside it."""
+def test_lego_single_runs_the_600_command_with_one_lattice(results, tmp_path, monkeypatch):
+    """Part single: part 600's fit with ``--set density_refine=1``, in its own folder, recorded beside it."""
     from benchmarks import lego
 
     (tmp_path / "transforms_train.json").write_text("{}")
     seen = []
-    metrics = {"psnr": 31.0, "ssim": 0.97, "train_time": 3600.1, "steps": 12000, "eval_time": 45.0,
+    metrics = {"psnr": 31.0, "ssim": 0.97, "train_time": 600.1, "steps": 3000, "eval_time": 45.0,
                "peak_memory": 3.9, "render_time": 0.2, "views": 200, "background": "white", "recipe": "grid-3d+"}
 
     def fake_fit(data, budget, part=None, *flags):
         seen.append((budget, part, flags))
-        return {"metrics": metrics, "size": "400 x 400", "wall": 3700.0, "first": "recipe grid-3d+: ...",
-                "last": "test PSNR 31.00 dB", "command": "python -m mitnerf fit --set density_refine=2"}
+        return {"metrics": metrics, "size": "400 x 400", "wall": 700.0, "first": "recipe grid-3d+: ...",
+                "last": "test PSNR 31.00 dB", "command": "python -m mitnerf fit --set density_refine=1"}
 
     monkeypatch.setattr(lego, "fit", fake_fit)
-    assert lego.main(["--data", str(tmp_path), "--parts", "refine"]) == 0
-    assert seen == [("3600", "refine-3600", ("--set", "density_refine=2"))]
-    entry = load_results()["lego/refine/3600"]
-    assert entry["values"]["psnr"] == 31.0 and "density_refine=2" in entry["command"]
+    assert lego.main(["--data", str(tmp_path), "--parts", "single"]) == 0
+    assert seen == [("600", "single-600", ("--set", "density_refine=1"))]
+    entry = load_results()["lego/single/600"]
+    assert entry["values"]["psnr"] == 31.0 and "density_refine=1" in entry["command"]
     from benchmarks import report
 
-    assert "| `lego/refine/3600` (grid-3d+) | 400 x 400 | 200 | 31.00 | 0.970 |" in report.lego_table(load_results())
+    assert "| `lego/single/600` (grid-3d+) | 400 x 400 | 200 | 31.00 | 0.970 |" in report.lego_table(load_results())
 
 
 def test_lego_auto_records_the_search_and_the_whole_wall_time(results, tmp_path, monkeypatch):

@@ -191,8 +191,8 @@ def views_at(focal: float, n: int = 3) -> Dataset:
     # a pixel's footprint at the origin: 4 / focal; the bound 1.1 spans 2.2 / footprint lattice spacings, 1.5 per
     # pixel: 3.3 focal / 4 + 1 vertices. grid-3d: at most 161, two doublings; one bin per spacing over [2, 6]: 4 (R -
     # 1) / 2.2 bins; a cell per two spacings. hashlinear-3d: at most 385, three doublings, a level each
-    (555.5, 161, 41, 291, 80, (49, 97, 193, 385)),   # 459 vertices: 161 = 40 * 4 + 1; 385 = 48 * 8 + 1
     (138.9, 117, 30, 211, 58, (15, 29, 57, 113)),    # 115.6 vertices: 29 * 4 + 1 = 117; 14 * 8 + 1 = 113
+    (277.8, 161, 41, 291, 80, (30, 59, 117, 233)),   # 230 vertices (< a refined 281): 161 = 40 * 4 + 1; 29 * 8 + 1
 ])
 def test_a_recipe_takes_its_lattice_and_samples_from_the_data(focal, final, start, bins, cells, levels):
     recipe = get_recipe("grid-3d").sized(views_at(focal))
@@ -210,16 +210,21 @@ def test_a_size_set_on_the_recipe_stays():
     assert recipe.model.render.occupancy.march_bins == 117                     # ceil(4 * 64 / 2.2)
 
 
-def test_a_refined_density_keeps_the_floats_of_the_cube_and_samples_its_spacing():
-    """grid-3d with density_refine 2 on the views of the table's first row: a vertex holds 12 colour floats and
-    about 2^3 density ones, so the lattice keeps 13 / 20 of the 161^3 cube's vertices: 161 * 0.65^(1/3) = 139.5 a
-    side, 35 * 4 + 1 = 141 (c rounded); the bins follow the density's spacing, two per lattice spacing:
-    ceil(4 * 2 * 140 / 2.2) = 510, and twice the samples: 128."""
-    recipe = get_recipe("grid-3d").override(density_refine=2).sized(views_at(555.5))
+def test_views_finer_than_the_cap_refine_the_density_and_keep_the_floats_of_the_cube():
+    """grid-3d on views asking for 459 vertices a side (focal 555.5), more than a refined density's 281: a vertex
+    holds 12 colour floats and about 2^3 density ones, so the lattice keeps 13 / 20 of the 161^3 cube's vertices:
+    161 * 0.65^(1/3) = 139.5 a side, 35 * 4 + 1 = 141 (c rounded), its density 2 * 140 + 1 = 281; the bins follow
+    the density's spacing, one per spacing: ceil(4 * 2 * 140 / 2.2) = 510; the samples stay 64; a cell per two
+    colour spacings: 70. Set to 1, the density keeps the colour's lattice: the table's 161 and 291 bins."""
+    recipe = get_recipe("grid-3d").sized(views_at(555.5))
     args, render = recipe.model.field_args, recipe.model.render
-    assert (args["resolution"], args["initial_resolution"]) == (141, 36)
-    assert (render.occupancy.march_bins, render.n_coarse) == (510, 128)
+    assert (args["resolution"], args["initial_resolution"], args["density_refine"]) == (141, 36, 2)
+    assert (render.occupancy.march_bins, render.n_coarse, render.occupancy.resolution) == (510, 64, 70)
     assert recipe.model.field_config(3).refined_share == 13 / 20
+    assert recipe.name == "grid-3d"
+    one = get_recipe("grid-3d").override(density_refine=1).sized(views_at(555.5))
+    assert (one.model.field_args["resolution"], one.model.render.occupancy.march_bins) == (161, 291)
+    assert get_recipe("hashlinear-3d").sized(views_at(555.5)).model.field_args["resolutions"] == (49, 97, 193, 385)
 
 
 def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():
@@ -309,8 +314,9 @@ def test_a_forward_facing_grid_takes_its_lattice_from_the_images(width, height, 
     # grid-unbounded's own 193 from 49 (two doublings of 48): 97 from 25, 49 from 13
     ("unbounded", lambda: forward_views(504, 378), (193, 49), [(49, 13, [49] * 3), (97, 25, [97] * 3)],
      5),
-    # an object seen at focal 555.5 (the sizing table above): 161 from 41; 81 from 21, 41 from 11
-    ("object", lambda: views_at(555.5), (161, 41), [(41, 11, [41] * 3), (81, 21, [81] * 3)],
+    # an object seen at focal 555.5 (its density refined, above): 141 from 36; 35 // 4 = 8: 33 from 9, 35 // 2 = 17:
+    # 69 from 18, their densities refined as the default's
+    ("object", lambda: views_at(555.5), (141, 36), [(33, 9, [33] * 3, 2), (69, 18, [69] * 3, 2)],
      1 << 18),                           # views of 2 x 2 pixels: as many as there are, up to 2^20 / 4
     # focal 10: 3.3 * 10 / 4 + 1 = 9.25 vertices, 9 from 3; two spacings halved is one: no coarser probe
     ("object", lambda: views_at(10.0), (9, 3), [], 1 << 18),
@@ -333,18 +339,18 @@ def test_fit_auto_probes_the_default_first_then_its_lattice_with_fewer_spacings(
     assert probe_recipe(*got[0], ds, cfg).train.val_views == views
     sized = [probe_recipe(*c, ds, cfg).sized(ds).model.field_args for c in got[1:]]
     assert [(a["resolution"], a["initial_resolution"], GridConfig(dim=3, **a).lattice(a["resolution"]))
-            for a in sized] == probes
+            + ((a["density_refine"],) if "density_refine" in a else ()) for a in sized] == probes
 
 
 def test_a_recipe_is_sized_for_cameras_with_a_lens():
     """Sizing reads the focal lengths of any camera (per-frame intrinsics, distortion): the same lattice as the
-    pinhole views of the same focal (``views_at(555.5)``: 161, the first row of the table above)."""
+    pinhole views of the same focal (``views_at(555.5)``: 141, its density refined)."""
     ds = views_at(555.5)
     cams = ds["train"].cameras
     lens = Cameras(cams.poses, cams.fx, 2, 2, cams.fy, cams.cx, cams.cy, np.tile([0.01, 0, 0, 0, 0], (3, 1)))
     split = Split(lens, np.zeros((3, 2, 2, 3), np.float32), np.ones((3, 2, 2), np.float32))
     sized = get_recipe("grid-3d").sized(Dataset({"train": split, "test": split}, 2.0, 6.0, {"kind": "3d"}))
-    assert sized.model.field_args["resolution"] == 161
+    assert (sized.model.field_args["resolution"], sized.model.field_args["density_refine"]) == (141, 2)
 
 
 def test_views_are_read_at_their_own_size_up_to_the_cap(vase_small, tmp_path, monkeypatch):

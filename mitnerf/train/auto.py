@@ -141,15 +141,17 @@ def final_params(family: str, args: dict, dim: int) -> int:
 def candidates(dataset: Dataset, cfg: AutoConfig) -> list[tuple[str, dict]]:
     """``(family, settings)`` of the probes in the order they run: the scene's default recipe as it stands (``{}``:
     :func:`~.fit.fit` sizes it from the data); in 3D, that lattice with :data:`GRID_DIVISIONS` times fewer spacings
-    (coarse to fine with the same doublings; none under 3 vertices a side), smallest first; then ``LADDER``'s
-    candidates, smallest (:func:`final_params`, as sized for ``dataset``) first; of ``cfg.families`` only."""
+    (coarse to fine with the same doublings, the density refined as its), none under 3 a side, smallest first; then
+    ``LADDER``'s candidates, smallest (:func:`final_params`, as sized for ``dataset``) first; of ``cfg.families``
+    only."""
     default = recipe_for(None, dataset.dim, cfg.scene)
     family = default.model.field
     args, coarser = default.sized(dataset).model.field_args, []
     if dataset.dim == 3 and "resolution" in args:    # the sized lattice's first spacings, c, divided by k
         c = (args.get("initial_resolution") or args["resolution"]) - 1
         step = (args["resolution"] - 1) // c
-        coarser = [(family, dict(resolution=c // k * step + 1, initial_resolution=c // k + 1))
+        refine = {"density_refine": args["density_refine"]} if "density_refine" in args else {}  # as its density
+        coarser = [(family, dict(resolution=c // k * step + 1, initial_resolution=c // k + 1, **refine))
                    for k in sorted(GRID_DIVISIONS, reverse=True) if c // k >= 2]
     size = lambda c: final_params(c[0], probe_recipe(*c, dataset, cfg).sized(dataset).model.field_args, dataset.dim)
     ours = lambda cands: sorted((c for c in cands if c[0] in cfg.families), key=size)

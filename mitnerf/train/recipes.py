@@ -17,7 +17,7 @@ from ..settings import field_named
 from .config import ModelConfig, TrainConfig
 
 
-SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells"), "hashlinear": ("resolutions",),
+SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "density_refine"), "hashlinear": ("resolutions",),
          "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
 """The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
 TV_SIZES = ("tv_weight", "tv_color_weight", "batch_rays")
@@ -43,7 +43,13 @@ class Sizing:
     """Occupancy bins along a ray (the finest sample spacing) per lattice spacing (per density spacing where the
     density is refined)."""
     samples: int = 64
-    """Samples per ray (the occupancy sampler's slots), times ``density_refine`` where the density is refined."""
+    """Samples per ray (the occupancy sampler's slots)."""
+    density_refine: int = 1
+    """Where the training pixels ask for a lattice at least this many times finer than the cap's
+    (:attr:`max_resolution`, refined: on fewer colour vertices that keep its floats), a dense grid's density takes
+    a lattice this many times finer than its colour's (``GridConfig.density_refine``): edges and thin parts are what
+    such views show best (``benchmarks/lego.py``). Views that ask for less (100 x 100 of an object) keep one
+    lattice, at most the cap's."""
     depth_cells: float = 0.125
     """Forward-facing scenes (a dense grid in NDC): cells along the depth axis ``z'`` per cell along ``x'``. NDC's
     ``x'`` and ``y'`` span the views' width and height, so the lattice's cells there follow the images' pixels, and
@@ -105,8 +111,9 @@ class Recipe:
         and :attr:`Sizing.depth_cells` times the width; the fullest axis takes :attr:`Sizing.vertices_per_pixel`
         vertices a pixel of the images' longer side, and the occupancy grid keeps the recipe's sizes. A grid whose
         density is refined (``density_refine`` k) keeps the cap's floats on fewer vertices
-        (:attr:`GridConfig.refined_share`), with :attr:`Sizing.samples_per_vertex` bins a density spacing and k times
-        the samples. A size set on the recipe stays."""
+        (:attr:`GridConfig.refined_share`), with :attr:`Sizing.samples_per_vertex` bins a density spacing; the
+        recipe's :attr:`Sizing.density_refine` is that k where the pixels ask for it. A size set on the recipe
+        stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
@@ -130,17 +137,25 @@ class Recipe:
         else:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
             across = max(cams.width, cams.height) if ndc else full / footprint  # pixels along the fullest axis
-            kept = out.model.field_config(dataset.dim).refined_share if k > 1 else 1.0
-            top_vertices = s.max_resolution * kept ** (1 / dataset.dim)
-            cap = (top_vertices - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1   # top_vertices^D in all
-            top = min(across * s.vertices_per_pixel + 1, cap, 513)
+
+            def cap(k: int) -> float:                            # the fullest axis of the cap's floats, refined k
+                kept = dataclasses.replace(out.model.field_config(dataset.dim), density_refine=k).refined_share \
+                    if k > 1 else 1.0
+                cube = s.max_resolution * kept ** (1 / dataset.dim)
+                return (cube - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1       # cube^D vertices in all
+
+            wanted = across * s.vertices_per_pixel + 1
+            j = s.density_refine                                 # refined where the pixels ask for its density
+            if grid and "density_refine" not in s.fixed and j > 1 and wanted >= j * (min(cap(j), 513) - 1) + 1:
+                k = j
+            top = min(wanted, cap(k), 513)
         c = max(2, round((top - 1) / 2 ** d))
         R = c * 2 ** d + 1
         sizes = {"resolution": R, "initial_resolution": c + 1, **({"box": box} if box else {}),
-                 "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples * k,
+                 "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
                  "occupancy.resolution": min(128, round((R - 1) * dataset.bound / full)),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * k * (R - 1)
-                                                     / full))}
+                                                     / full)), **({"density_refine": k} if k > 1 else {})}
         if "batch_rays" in self.sized_keys():
             shape = FIELDS["grid"][0](dim=dataset.dim, box=box, cells=cells, bound=dataset.bound).lattice(R)
             per_pixel = float(np.prod(shape)) / (len(cams) * cams.width * cams.height)
@@ -311,13 +326,15 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "the lattice over the box around the views' visual hull where the data has one, as many vertices as a 161^3 "
-       "cube at most (the grid's training state grows with them); a high learning rate (a budget of seconds buys few "
+       "cube at most (the grid's training state grows with them), the density on a lattice twice as fine where the "
+       "data asks for more than that (the lego's 400 x 400 views); a high learning rate (a budget of seconds buys few "
        "steps); a density TV ten times and a colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry "
        "detail, texture and highlights that 2D's weights blur away), both scaled down where the lattice has fewer "
        "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.26 a pixel), where a "
        "step also takes twice the rays; renders with twice the samples of training on the same occupancy bins "
        "(benchmarks/lego.py)",
-       Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0)),
+       Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0,
+              density_refine=2)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
                                               tv_color_weight=3e-4),
