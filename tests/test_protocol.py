@@ -12,6 +12,7 @@ from mitnerf.data.rays import background_colors
 from mitnerf.train.evaluate import evaluate
 from mitnerf.train.fit import resolve_background
 from mitnerf.train.recipes import get_recipe
+from mitnerf.train.sizing import most_vertices
 
 
 def one_view() -> Split:
@@ -192,7 +193,7 @@ def views_at(focal: float, n: int = 3) -> Dataset:
     # pixel: 3.3 focal / 4 + 1 vertices. grid-3d: at most 161, two doublings; one bin per spacing over [2, 6]: 4 (R -
     # 1) / 2.2 bins; a cell per two spacings. hashlinear-3d: at most 385, three doublings, a level each
     (138.9, 117, 30, 211, 58, (15, 29, 57, 113)),    # 115.6 vertices: 29 * 4 + 1 = 117; 14 * 8 + 1 = 113
-    (277.8, 161, 41, 291, 80, (30, 59, 117, 233)),   # 230 vertices (< a refined 281): 161 = 40 * 4 + 1; 29 * 8 + 1
+    (277.8, 161, 41, 291, 80, (30, 59, 117, 233)),   # 230 vertices (< 277.9, below): 161 = 40 * 4 + 1; 29 * 8 + 1
 ])
 def test_a_recipe_takes_its_lattice_and_samples_from_the_data(focal, final, start, bins, cells, levels):
     recipe = get_recipe("grid-3d").sized(views_at(focal))
@@ -211,11 +212,13 @@ def test_a_size_set_on_the_recipe_stays():
 
 
 def test_views_finer_than_the_cap_refine_the_density_and_keep_the_floats_of_the_cube():
-    """grid-3d on views asking for 459 vertices a side (focal 555.5), more than a refined density's 281: a vertex
-    holds 12 colour floats and about 2^3 density ones, so the lattice keeps 13 / 20 of the 161^3 cube's vertices:
-    161 * 0.65^(1/3) = 139.5 a side, 35 * 4 + 1 = 141 (c rounded), its density 2 * 140 + 1 = 281; the bins follow
-    the density's spacing, one per spacing: ceil(4 * 2 * 140 / 2.2) = 510; the samples stay 64; a cell per two
-    colour spacings: 70. Set to 1, the density keeps the colour's lattice: the table's 161 and 291 bins."""
+    """grid-3d on views asking for 459 vertices a side (focal 555.5): a vertex holds 12 colour floats and about 2^3
+    density ones, so a refined lattice keeps 13 / 20 of the 161^3 cube's vertices, 161 * 0.65^(1/3) = 139.46 a
+    side, whose density would have 2 * 138.46 + 1 = 277.9: the views ask for more, so the density is refined.
+    35 * 4 + 1 = 141 (c rounded), its density 2 * 140 + 1 = 281; the bins follow the density's spacing, one per
+    spacing: ceil(4 * 2 * 140 / 2.2) = 510; the samples stay 64; a cell per two colour spacings: 70. Set to 1, the
+    density keeps the colour's lattice: the table's 161 and 291 bins. Set to 2 on views asking for 230 (focal
+    277.8, fewer than 277.9), the density is refined all the same, on the same 141."""
     recipe = get_recipe("grid-3d").sized(views_at(555.5))
     args, render = recipe.model.field_args, recipe.model.render
     assert (args["resolution"], args["initial_resolution"], args["density_refine"]) == (141, 36, 2)
@@ -225,6 +228,24 @@ def test_views_finer_than_the_cap_refine_the_density_and_keep_the_floats_of_the_
     one = get_recipe("grid-3d").override(density_refine=1).sized(views_at(555.5))
     assert (one.model.field_args["resolution"], one.model.render.occupancy.march_bins) == (161, 291)
     assert get_recipe("hashlinear-3d").sized(views_at(555.5)).model.field_args["resolutions"] == (49, 97, 193, 385)
+    two = get_recipe("grid-3d").override(density_refine=2).sized(views_at(277.8))
+    assert (two.model.field_args["resolution"], two.model.field_args["initial_resolution"]) == (141, 36)
+    assert (two.model.render.occupancy.march_bins, two.model.render.n_coarse) == (510, 64)
+
+
+def test_a_refined_lattice_is_sized_within_the_density_limit():
+    """A density refined 3 times may have 1025 vertices a side at most, so its colour lattice 1024 // 3 + 1 = 342:
+    views asking for 4126 vertices (focal 5000), the cap raised past that (max_resolution 2000), three doublings:
+    341 / 8 = 42.6 would round to 43, 43 * 8 + 1 = 345 (a density of 1033, refused); it takes 42: 337 from 43."""
+    import dataclasses
+
+    recipe = get_recipe("grid-3d").override(density_refine=3)
+    recipe.sizing = dataclasses.replace(recipe.sizing, max_resolution=2000, doublings=3)
+    sized = recipe.sized(views_at(5000.0))
+    args = sized.model.field_args
+    assert (args["resolution"], args["initial_resolution"], args["density_refine"]) == (337, 43, 3)
+    assert sized.model.field_config(3).density_lattice(337) == [1009] * 3                 # 3 * 336 + 1
+    assert most_vertices(3) == 342 and most_vertices(2) == 513 and most_vertices(1) == 513
 
 
 def test_a_grid_spans_the_data_box_with_as_many_vertices_as_the_cube():

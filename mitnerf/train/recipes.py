@@ -15,52 +15,7 @@ from ..render.occupancy import OccupancyConfig
 from ..render.pipeline import RenderConfig
 from ..settings import field_named
 from .config import ModelConfig, TrainConfig
-
-
-SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "density_refine"), "hashlinear": ("resolutions",),
-         "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
-"""The settings :meth:`Recipe.sized` derives from the data, per field family and for the rendering."""
-TV_SIZES = ("tv_weight", "tv_color_weight", "batch_rays")
-"""What it derives too for a dense grid whose sizing has a :attr:`Sizing.tv_reference` (:meth:`Recipe.sized_keys`)."""
-
-
-@dataclass
-class Sizing:
-    """How a recipe takes its sizes from the data (:meth:`Recipe.sized`): its finest lattice as fine as the training
-    images' pixels are at the scene, within a limit, reached coarse to fine; the sample spacing from the lattice's."""
-
-    vertices_per_pixel: float = 1.0
-    """Finest lattice spacing per pixel footprint at the scene's centre (the training cameras' median distance to
-    the origin over the focal length): 1, one vertex per pixel."""
-    max_resolution: int = 193
-    """The finest lattice has at most as many vertices as a cube of this many a side (a box's fullest axis more):
-    a dense grid's memory grows with its vertex count. A refined density lattice (``density_refine``) keeps the
-    floats of that cube's grid, on fewer vertices (:attr:`GridConfig.refined_share`)."""
-    doublings: int = 2
-    """Coarse to fine: the lattice starts this many doublings coarser (the grid's ``initial_resolution``; the linearly
-    decoded hash grid's levels, one per doubling)."""
-    samples_per_vertex: float = 2.0
-    """Occupancy bins along a ray (the finest sample spacing) per lattice spacing (per density spacing where the
-    density is refined)."""
-    samples: int = 64
-    """Samples per ray (the occupancy sampler's slots)."""
-    density_refine: int = 1
-    """Where the training pixels ask for a lattice at least this many times finer than the cap's
-    (:attr:`max_resolution`, refined: on fewer colour vertices that keep its floats), a dense grid's density takes
-    a lattice this many times finer than its colour's (``GridConfig.density_refine``): edges and thin parts are what
-    such views show best (``benchmarks/lego.py``). Views that ask for less (100 x 100 of an object) keep one
-    lattice, at most the cap's."""
-    depth_cells: float = 0.125
-    """Forward-facing scenes (a dense grid in NDC): cells along the depth axis ``z'`` per cell along ``x'``. NDC's
-    ``x'`` and ``y'`` span the views' width and height, so the lattice's cells there follow the images' pixels, and
-    ``z'``, even in disparity, needs far fewer."""
-    tv_reference: float | None = None
-    """A dense grid's lattice vertices per training pixel at which the recipe's total-variation weights hold; data
-    with fewer (more pixels to pin each vertex) scales both weights down in proportion, as a prior's weight falls
-    with the observations against it, and a step takes twice the recipe's rays (``benchmarks/lego.py``). None: the
-    recipe's weights and batch whatever the data."""
-    fixed: tuple = ()
-    """Sizes set on the recipe (:meth:`Recipe.override`), which the data leaves alone."""
+from .sizing import SIZES, TV_SIZES, Sizing, most_vertices
 
 
 @dataclass
@@ -138,18 +93,20 @@ class Recipe:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
             across = max(cams.width, cams.height) if ndc else full / footprint  # pixels along the fullest axis
 
-            def cap(k: int) -> float:                            # the fullest axis of the cap's floats, refined k
-                kept = dataclasses.replace(out.model.field_config(dataset.dim), density_refine=k).refined_share \
-                    if k > 1 else 1.0
+            def cap(refine: int) -> float:           # the fullest axis in the cap's floats, density refined so
+                kept = dataclasses.replace(out.model.field_config(dataset.dim), density_refine=refine).refined_share \
+                    if refine > 1 else 1.0
                 cube = s.max_resolution * kept ** (1 / dataset.dim)
-                return (cube - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1       # cube^D vertices in all
+                return min((cube - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1, most_vertices(refine))
 
             wanted = across * s.vertices_per_pixel + 1
             j = s.density_refine                                 # refined where the pixels ask for its density
-            if grid and "density_refine" not in s.fixed and j > 1 and wanted >= j * (min(cap(j), 513) - 1) + 1:
+            if grid and "density_refine" not in s.fixed and j > 1 and wanted >= j * (cap(j) - 1) + 1:
                 k = j
-            top = min(wanted, cap(k), 513)
+            top = min(wanted, cap(k))
         c = max(2, round((top - 1) / 2 ** d))
+        if "resolution" not in s.fixed and "resolutions" not in s.fixed:
+            c = min(c, (most_vertices(k) - 1) // 2 ** d)          # rounded up no further than the limit
         R = c * 2 ** d + 1
         sizes = {"resolution": R, "initial_resolution": c + 1, **({"box": box} if box else {}),
                  "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
@@ -326,11 +283,12 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "the lattice over the box around the views' visual hull where the data has one, as many vertices as a 161^3 "
-       "cube at most (the grid's training state grows with them), the density on a lattice twice as fine where the "
-       "data asks for more than that (the lego's 400 x 400 views); a high learning rate (a budget of seconds buys few "
+       "cube at most (the grid's training state grows with them); where the views ask for a density lattice twice "
+       "as fine as the cap's floats hold refined (the lego's 400 x 400 views), the density on a lattice twice as fine "
+       "as the colour's; a high learning rate (a budget of seconds buys few "
        "steps); a density TV ten times and a colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry "
        "detail, texture and highlights that 2D's weights blur away), both scaled down where the lattice has fewer "
-       "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.26 a pixel), where a "
+       "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.17 colour vertices a pixel), where a "
        "step also takes twice the rays; renders with twice the samples of training on the same occupancy bins "
        "(benchmarks/lego.py)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0,
@@ -396,7 +354,7 @@ recipe), probed smallest first."""
 GRID_DIVISIONS = (2, 4)
 """In 3D (an object, a forward-facing or an unbounded scene), ``fit --auto`` also probes the dense grid the default
 recipe sizes from the data with its spacings along the fullest axis divided by each of these: the data's own
-lattice and the coarser ones, whatever the views' size (the lego's 400 x 400 views: 225, 113 and 57 vertices)."""
+lattice and the coarser ones, whatever the views' size (the lego's 400 x 400 views: 197, 97 and 49 vertices, each density twice as fine)."""
 
 SWEEP_SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
          "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
