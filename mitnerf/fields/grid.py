@@ -10,8 +10,9 @@ the field is traceable (it runs inside the fused march); where the integral does
 (``keep``), only the density is read (one channel per corner instead of 1 + 3 x the colour's coefficients), so
 empty space and the inside of a surface cost that much less in the primal and the adjoint
 (``benchmarks/grid_step.py``). With ``density_refine`` k the density has a lattice of its own, k times finer than
-the colour's over the same box, so edges and thin parts get finer cells for one float a vertex
-(grid-3d does so where the views ask for it: ``Sizing.density_refine``, ``benchmarks/lego.py``). Twin: :mod:`mitnerf.reference.fields.grid`.
+the colour's over the same box, so edges and thin parts get finer cells for one float a vertex (grid-3d does so
+where the views ask for it: ``Sizing.density_refine``, ``benchmarks/lego.py``). Twin:
+:mod:`mitnerf.reference.fields.grid`.
 """
 
 from __future__ import annotations

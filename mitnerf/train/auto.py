@@ -141,9 +141,9 @@ def final_params(family: str, args: dict, dim: int) -> int:
 def candidates(dataset: Dataset, cfg: AutoConfig) -> list[tuple[str, dict]]:
     """``(family, settings)`` of the probes in the order they run: the scene's default recipe as it stands (``{}``:
     :func:`~.fit.fit` sizes it from the data); in 3D, that lattice with :data:`GRID_DIVISIONS` times fewer spacings
-    (coarse to fine with the same doublings, their density refined as the default's), none under 3 a side, smallest first; then
-    ``LADDER``'s candidates, smallest (:func:`final_params`, as sized for ``dataset``) first; of ``cfg.families``
-    only."""
+    (coarse to fine with the same doublings, their density refined as the default's), none under 3 a side,
+    smallest first; then ``LADDER``'s candidates, smallest (:func:`final_params`, as sized for ``dataset``) first;
+    of ``cfg.families`` only."""
     default = recipe_for(None, dataset.dim, cfg.scene)
     family = default.model.field
     args, coarser = default.sized(dataset).model.field_args, []

@@ -285,12 +285,11 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "the lattice over the box around the views' visual hull where the data has one, as many vertices as a 161^3 "
        "cube at most (the grid's training state grows with them); where the views ask for a density lattice twice "
        "as fine as the cap's floats hold refined (the lego's 400 x 400 views), the density on a lattice twice as fine "
-       "as the colour's; a high learning rate (a budget of seconds buys few "
-       "steps); a density TV ten times and a colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry "
-       "detail, texture and highlights that 2D's weights blur away), both scaled down where the lattice has fewer "
-       "vertices than the training views have pixels (the lego's 100 views of 400 x 400: 0.17 colour vertices a pixel), where a "
-       "step also takes twice the rays; renders with twice the samples of training on the same occupancy bins "
-       "(benchmarks/lego.py)",
+       "as the colour's; a high learning rate (a budget of seconds buys few steps); a density TV ten times and a "
+       "colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry detail, texture and highlights that "
+       "2D's weights blur away), both scaled down where the lattice has fewer vertices than the training views have "
+       "pixels (the lego's 100 views of 400 x 400: 0.17 colour vertices a pixel), where a step also takes twice the "
+       "rays; renders with twice the samples of training on the same occupancy bins (benchmarks/lego.py)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0,
               density_refine=2)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
@@ -354,7 +353,8 @@ recipe), probed smallest first."""
 GRID_DIVISIONS = (2, 4)
 """In 3D (an object, a forward-facing or an unbounded scene), ``fit --auto`` also probes the dense grid the default
 recipe sizes from the data with its spacings along the fullest axis divided by each of these: the data's own
-lattice and the coarser ones, whatever the views' size (the lego's 400 x 400 views: 197, 97 and 49 vertices, each density twice as fine)."""
+lattice and the coarser ones, whatever the views' size (the lego's 400 x 400 views: 197, 97 and 49 vertices, each
+density twice as fine)."""
 
 SWEEP_SIZES = {"vanilla": {"w32": dict(width=32), "recipe": {}},
          "grid": {"small": {2: dict(resolution=129, initial_resolution=33, upsample_at=(100,)),
