@@ -363,6 +363,25 @@ def test_fit_auto_probes_the_default_first_then_its_lattice_with_fewer_spacings(
             + ((a["density_refine"],) if "density_refine" in a else ()) for a in sized] == probes
 
 
+def test_fit_auto_sizes_every_probe_with_the_density_refinement_the_user_typed():
+    """``fit --auto --set density_refine=1`` on views that would refine it (focal 555.5): every grid probe keeps one
+    lattice, sized as one (161 from 41 over 291 bins, not the refined 141 over 510 bins), the coarser ones from it
+    (41 and 81, the table's); families without the setting are probed as they are."""
+    from mitnerf.train.auto import AutoConfig, candidates, pinned_for, probe_recipe
+
+    ds = views_at(555.5)
+    ds = Dataset({**ds.splits, "val": ds["train"]}, ds.near, ds.far, ds.meta)
+    pinned, cfg = {"density_refine": 1, "lr": 0.1}, AutoConfig(scene="object")
+    got = candidates(ds, cfg, pinned)
+    sized = [probe_recipe(*c, ds, cfg, pinned).sized(ds) for c in got]
+    grids = [(r.model.field_args["resolution"], r.model.render.occupancy.march_bins) for r in sized
+             if r.model.field == "grid"]
+    assert grids[:3] == [(161, 291), (41, 73), (81, 146)]          # ceil(4 (R - 1) / 2.2): one bin a spacing
+    assert all(r.model.field_args.get("density_refine", 1) == 1 for r in sized if r.model.field == "grid")
+    assert pinned_for("grid", pinned) == {"density_refine": 1} and pinned_for("vanilla", pinned) == {}
+    assert any(r.model.field != "grid" for r in sized)
+
+
 def test_a_recipe_is_sized_for_cameras_with_a_lens():
     """Sizing reads the focal lengths of any camera (per-frame intrinsics, distortion): the same lattice as the
     pinhole views of the same focal (``views_at(555.5)``: 141, its density refined)."""

@@ -30,6 +30,15 @@ from .recipes import GRID_DIVISIONS, LADDER, Recipe, recipe_for
 
 OTHER_SCENE = {"forward": "unbounded", "unbounded": "object"}
 """The scene ``fit --auto`` tries against each (an object with alpha has no other)."""
+PINNED = ("density_refine",)
+"""Settings the user types with ``fit --auto`` that shape how each probe is sized, not only the chosen recipe:
+every probe of a family that has them takes them (:func:`pinned_for`)."""
+
+
+def pinned_for(family: str, settings: dict | None) -> dict:
+    """The :data:`PINNED` ones of ``settings`` that ``family``'s fields have."""
+    own = FIELDS[family][0].__dataclass_fields__
+    return {k: v for k, v in (settings or {}).items() if k in PINNED and k in own}
 
 @dataclass
 class AutoConfig:
@@ -118,14 +127,14 @@ def with_validation(dataset: Dataset) -> tuple[Dataset, str]:
         f"(every 8th from the 5th) and train on the other {n - len(held)}; the chosen recipe trains on all {n}")
 
 
-def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig) -> Recipe:
-    """The family's recipe (its view dependence and losses included) with the candidate's settings, trained for
-    :func:`probe_seconds` (or ``cfg.steps`` steps) with one validation, on ``cfg.val_pixels`` pixels' worth of
-    ``dataset``'s validation views."""
+def probe_recipe(family: str, args: dict, dataset: Dataset, cfg: AutoConfig, pinned: dict | None = None) -> Recipe:
+    """The family's recipe (its view dependence and losses included) with the candidate's settings and the user's
+    ``pinned`` ones (:func:`pinned_for`), trained for :func:`probe_seconds` (or ``cfg.steps`` steps) with one
+    validation, on ``cfg.val_pixels`` pixels' worth of ``dataset``'s validation views."""
     base = recipe_for(family, dataset.dim, cfg.scene)
     cams = dataset["val"].cameras
-    kw = dict(args, seed=cfg.seed, val_every=0, val_views=max(1, cfg.val_pixels // (cams.width * cams.height)),
-              progress=False)
+    kw = dict(args, **pinned_for(family, pinned), seed=cfg.seed, val_every=0,
+              val_views=max(1, cfg.val_pixels // (cams.width * cams.height)), progress=False)
     if cfg.steps:
         return base.at_steps(cfg.steps, **kw)
     return base.override(**kw, time_budget=probe_seconds(cfg, dataset.dim), iters=10 ** 6)
@@ -138,14 +147,15 @@ def final_params(family: str, args: dict, dim: int) -> int:
     return sum(v.size for v in FIELDS[family][1](cfg).init_numpy(0).values())
 
 
-def candidates(dataset: Dataset, cfg: AutoConfig) -> list[tuple[str, dict]]:
+def candidates(dataset: Dataset, cfg: AutoConfig, pinned: dict | None = None) -> list[tuple[str, dict]]:
     """``(family, settings)`` of the probes in the order they run: the scene's default recipe as it stands (``{}``:
     :func:`~.fit.fit` sizes it from the data); in 3D, that lattice with :data:`GRID_DIVISIONS` times fewer spacings
     (coarse to fine with the same doublings, their density refined as the default's), none under 3 a side,
     smallest first; then ``LADDER``'s candidates, smallest (:func:`final_params`, as sized for ``dataset``) first;
-    of ``cfg.families`` only."""
+    of ``cfg.families`` only; each as ``pinned`` sizes it (:func:`probe_recipe`)."""
     default = recipe_for(None, dataset.dim, cfg.scene)
     family = default.model.field
+    default = default.override(**pinned_for(family, pinned))
     args, coarser = default.sized(dataset).model.field_args, []
     if dataset.dim == 3 and "resolution" in args:    # the sized lattice's first spacings, c, divided by k
         c = (args.get("initial_resolution") or args["resolution"]) - 1
@@ -153,7 +163,8 @@ def candidates(dataset: Dataset, cfg: AutoConfig) -> list[tuple[str, dict]]:
         refine = {"density_refine": args["density_refine"]} if "density_refine" in args else {}  # as its density
         coarser = [(family, dict(resolution=c // k * step + 1, initial_resolution=c // k + 1, **refine))
                    for k in sorted(GRID_DIVISIONS, reverse=True) if c // k >= 2]
-    size = lambda c: final_params(c[0], probe_recipe(*c, dataset, cfg).sized(dataset).model.field_args, dataset.dim)
+    size = lambda c: final_params(c[0], probe_recipe(*c, dataset, cfg, pinned).sized(dataset).model.field_args,
+                                  dataset.dim)
     ours = lambda cands: sorted((c for c in cands if c[0] in cfg.families), key=size)
     return [(family, {})] * (family in cfg.families) + ours(coarser) + ours(LADDER[dataset.dim])
 
@@ -194,13 +205,14 @@ def trial_line(t: Trial) -> str:
             f"{round(t.val_psnr, 2)} dB in {t.train_time:.1f} s [{t.note}]")
 
 
-def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> AutoResult:
-    """The chosen model and its options; see the module docstring. ``say(line)`` hears of each probe as it ends."""
+def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None, pinned: dict | None = None) -> AutoResult:
+    """The chosen model and its options; see the module docstring. ``say(line)`` hears of each probe as it ends;
+    ``pinned``: the user's :data:`PINNED` settings, which every probe takes."""
     cfg = cfg or AutoConfig()
     t0 = time.perf_counter()
     spent = lambda: time.perf_counter() - t0 > cfg.time_budget
     dataset, held = with_validation(dataset)
-    cands = candidates(dataset, cfg)
+    cands = candidates(dataset, cfg, pinned)
     trials: list[Trial] = []
 
     def trial(recipe: Recipe, note: str) -> Trial:
@@ -216,7 +228,7 @@ def auto_size(dataset: Dataset, cfg: AutoConfig | None = None, say=None) -> Auto
     for family, args in cands:
         if spent() and sized:                     # the default at least, whatever the budget
             break
-        sized.append(trial(probe_recipe(family, args, dataset, cfg), "size"))
+        sized.append(trial(probe_recipe(family, args, dataset, cfg, pinned), "size"))
         if args and cfg.target_psnr is not None and sized[-1].val_psnr >= cfg.target_psnr:     # not the default
             break
     best, reached, why = pick_size(sorted(sized, key=lambda t: t.params), cfg.tolerance, cfg.target_psnr)
@@ -277,7 +289,7 @@ def choose_recipe(dataset: Dataset, cfg: AutoConfig | None = None, settings: dic
     settings.pop("scene", None)                     # cfg.scene: the scene the search starts from
     if settings.get("time_budget") and not cfg.probe_time:
         cfg.probe_time = float(settings["time_budget"])
-    result = auto_size(dataset, cfg, say)
+    result = auto_size(dataset, cfg, say, settings)
     won = result.recipe.model                     # the winning probe, less what only probes set
     base = recipe_for(won.field, dataset.dim, won.render.scene)
     own = base.train
