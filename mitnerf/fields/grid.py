@@ -102,7 +102,7 @@ class GridConfig(GridSettings):
         axis."""
         if self.initial_resolution is None:
             self.initial_resolution = self.resolution
-        top = 8193 if self.dim == 2 else 513
+        top = most_vertices(self.dim)
         for name in ("resolution", "initial_resolution"):
             if getattr(self, name) > top:
                 raise ConfigError(f"{'--grid-resolution' if name == 'resolution' else '--set ' + name} "
@@ -350,6 +350,13 @@ class GridField(LatticeField):
                     per_vertex += dr.select(has, dr.square(there - here), 0.0)
             total = total + weight * (cfg.density_scale ** 2 if name == "density" else 1.0) * dr.mean(per_vertex)
         return total
+
+
+def most_vertices(dim: int, refine: int = 1) -> int:
+    """The most vertices a side a grid's colour lattice may have: 8193 in 2D, 513 in 3D, and fewer where its density,
+    ``refine`` times finer, would pass twice that less one (:meth:`GridConfig.settle` refuses more)."""
+    top = 8193 if dim == 2 else 513
+    return min(top, (2 * top - 2) // refine + 1)
 
 
 def lattice_points(extent: tuple, shape: list) -> np.ndarray:

@@ -40,6 +40,7 @@ def pinned_for(family: str, settings: dict | None) -> dict:
     own = FIELDS[family][0].__dataclass_fields__
     return {k: v for k, v in (settings or {}).items() if k in PINNED and k in own}
 
+
 @dataclass
 class AutoConfig:
     """The search."""

@@ -93,9 +93,10 @@ class Recipe:
             footprint = float(np.median(np.linalg.norm(cams.origins, axis=1)) / np.median(cams.fx))  # any lens
             across = max(cams.width, cams.height) if ndc else full / footprint  # pixels along the fullest axis
 
+            config = out.model.field_config(dataset.dim)
+
             def cap(refine: int) -> float:           # the fullest axis in the cap's floats, density refined so
-                kept = dataclasses.replace(out.model.field_config(dataset.dim), density_refine=refine).refined_share \
-                    if refine > 1 else 1.0
+                kept = dataclasses.replace(config, density_refine=refine).refined_share if refine > 1 else 1.0
                 cube = s.max_resolution * kept ** (1 / dataset.dim)
                 return min((cube - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1, most_vertices(refine))
 

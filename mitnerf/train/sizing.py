@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..fields.grid import most_vertices as grid_most_vertices
+
 
 SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "density_refine"), "hashlinear": ("resolutions",),
          "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
@@ -15,9 +17,9 @@ TV_SIZES = ("tv_weight", "tv_color_weight", "batch_rays")
 
 
 def most_vertices(refine: int) -> int:
-    """The most vertices a side a sized lattice gets, its density ``refine`` times finer: 513 (``GridConfig``'s
-    limit in 3D), or as many as keep the density's at 1025."""
-    return 1024 // refine + 1 if refine > 1 else 513
+    """The most vertices a side a sized lattice gets, its density ``refine`` times finer: a 3D grid's limit
+    (:func:`mitnerf.fields.grid.most_vertices`)."""
+    return grid_most_vertices(3, refine)
 
 
 @dataclass
