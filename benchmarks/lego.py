@@ -12,7 +12,8 @@ folder) for :data:`BUDGET_800` seconds: the original 800 x 800 lego's pixel coun
 evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure).
 Part ``resolution`` (``lego_resolution/3600``) scores the field part ``3600`` wrote on the test views at their size
 and box-filtered to 200 x 200: what halving the pixels' size costs this field, read as the drop to expect from
-400 x 400 to the held-back 800 x 800. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto
+400 x 400 to the held-back 800 x 800; and on its 100 training views, the gap between views it saw and views it did
+not. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto
 --time-budget 120``: the search's probes, what it chose, the chosen recipe's test figures and the whole command's
 wall time. The default recipe takes the lego's density on a lattice twice as fine as its colour's
 (``Sizing.density_refine``); part ``single`` (``lego/single/600``) runs part ``600``'s command with ``--set
@@ -87,8 +88,8 @@ def fit(data: Path, budget: str, part: str | None = None, *flags: str) -> dict:
 
 
 def scored_at_sizes(run: Path, data: Path) -> dict:
-    """The field in ``run`` on every test view of ``data`` at their size and box-filtered twice smaller:
-    ``{downscale: (PSNR, SSIM, size)}``."""
+    """The field in ``run`` on every test view of ``data`` at their size and box-filtered twice smaller, and on every
+    training view at its size: ``{1: (PSNR, SSIM, size), 2: (...), "train": (...)}``."""
     from mitnerf.data.formats import load_dataset
     from mitnerf.train.checkpoint import load_checkpoint
     from mitnerf.train.evaluate import evaluate
@@ -97,8 +98,9 @@ def scored_at_sizes(run: Path, data: Path) -> dict:
     out = {}
     for k in (1, 2):
         ds = load_dataset(data, k)
-        rec = evaluate(backend, ds, "test", geometry_metrics=False)
-        out[k] = (rec.psnr, rec.ssim, "{} x {}".format(ds["test"].cameras.width, ds["test"].cameras.height))
+        for key, split in [(k, "test")] + ([("train", "train")] if k == 1 else []):
+            rec = evaluate(backend, ds, split, geometry_metrics=False)
+            out[key] = (rec.psnr, rec.ssim, "{} x {}".format(ds[split].cameras.width, ds[split].cameras.height))
     return out
 
 
@@ -121,8 +123,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                    help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
-                        "(fit --auto), resolution (the 3600 s field on views twice smaller) and single (part 600 with "
-                        "one lattice for density and colour)")
+                        "(fit --auto), resolution (the 3600 s field on views twice smaller and on its training "
+                        "views) and single (part 600 with one lattice for density and colour)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -152,12 +154,14 @@ def main(argv=None) -> int:
                 print(f"lego_resolution: skipped, no fit at {run} (run --parts 3600 first)")
                 continue
             got = scored_at_sizes(run, args.data)
-            (p1, s1, size1), (p2, s2, size2) = got[1], got[2]
+            (p1, s1, size1), (p2, s2, size2), (pt, st, _) = got[1], got[2], got["train"]
             v = {"run": "out/lego/3600", "psnr": p1, "ssim": s1, "size": size1, "psnr_half": p2, "ssim_half": s2,
-                 "size_half": size2, "gain_db": p2 - p1}
+                 "size_half": size2, "gain_db": p2 - p1, "psnr_train": pt, "ssim_train": st, "gap_db": pt - p1}
             line = (f"the lego/3600 field on the 200 test views: {p1:.2f} dB, SSIM {s1:.3f} at {size1}; "
                     f"{p2:.2f} dB, SSIM {s2:.3f} box-filtered to {size2} ({p2 - p1:+.2f} dB): halving the pixels' "
-                    f"size costs this lattice about {p2 - p1:.1f} dB, the drop to expect from {size1} to 800 x 800")
+                    f"size costs this lattice about {p2 - p1:.1f} dB, the drop to expect from {size1} to 800 x 800; "
+                    f"on its own training views {pt:.2f} dB, SSIM {st:.3f} ({pt - p1:+.2f} dB over the test views: "
+                    "what it fits and does not carry to new views)")
             print(f"lego_resolution/3600: {line}")
             record_result("lego_resolution/3600", v, line, "python benchmarks/lego.py --parts resolution",
                           recipe=json.loads((run / "metrics.json").read_text())["recipe"],

@@ -171,11 +171,14 @@ def test_lego_resolution_scores_the_3600_fit_twice_smaller_and_skips_without_it(
     (run / "metrics.json").write_text('{"recipe": "grid-3d+"}')
     monkeypatch.setattr(lego, "RUN_3600", run)
     monkeypatch.setattr(lego, "scored_at_sizes", lambda r, data: {1: (30.46, 0.965, "400 x 400"),
-                                                                   2: (32.16, 0.982, "200 x 200")})
+                                                                   2: (32.16, 0.982, "200 x 200"),
+                                                                   "train": (34.50, 0.980, "400 x 400")})
     assert lego.main(["--data", str(tmp_path), "--parts", "resolution"]) == 0
     entry = load_results()["lego_resolution/3600"]
     assert abs(entry["values"]["gain_db"] - 1.70) < 1e-9 and entry["recipe"] == "grid-3d+"
+    assert abs(entry["values"]["gap_db"] - 4.04) < 1e-9        # 34.50 on the training views - 30.46 on the test views
     assert "32.16 dB, SSIM 0.982 box-filtered to 200 x 200 (+1.70 dB)" in entry["summary"]
+    assert "on its own training views 34.50 dB, SSIM 0.980 (+4.04 dB over the test views" in entry["summary"]
 
 
 def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, tmp_path, monkeypatch):
