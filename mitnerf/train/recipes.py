@@ -98,7 +98,8 @@ class Recipe:
             def cap(refine: int) -> float:           # the fullest axis in the cap's floats, density refined so
                 kept = dataclasses.replace(config, density_refine=refine).refined_share if refine > 1 else 1.0
                 cube = s.max_resolution * kept ** (1 / dataset.dim)
-                return min((cube - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1, most_vertices(refine))
+                axis = (cube - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1
+                return min(axis, most_vertices(refine, dataset.dim))
 
             wanted = across * s.vertices_per_pixel + 1
             j = s.density_refine                                 # refined where the pixels ask for its density
@@ -107,7 +108,7 @@ class Recipe:
             top = min(wanted, cap(k))
         c = max(2, round((top - 1) / 2 ** d))
         if "resolution" not in s.fixed and "resolutions" not in s.fixed:
-            c = min(c, (most_vertices(k) - 1) // 2 ** d)          # rounded up no further than the limit
+            c = min(c, (most_vertices(k, dataset.dim) - 1) // 2 ** d)     # rounded up no further than the limit
         R = c * 2 ** d + 1
         sizes = {"resolution": R, "initial_resolution": c + 1, **({"box": box} if box else {}),
                  "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,

@@ -16,10 +16,10 @@ TV_SIZES = ("tv_weight", "tv_color_weight", "batch_rays")
 (:meth:`~.recipes.Recipe.sized_keys`)."""
 
 
-def most_vertices(refine: int) -> int:
-    """The most vertices a side a sized lattice gets, its density ``refine`` times finer: a 3D grid's limit
-    (:func:`mitnerf.fields.grid.most_vertices`)."""
-    return grid_most_vertices(3, refine)
+def most_vertices(refine: int, dim: int = 3) -> int:
+    """The most vertices a side a sized lattice of ``dim`` dimensions gets, its density ``refine`` times finer: the
+    grid's own limit (:func:`mitnerf.fields.grid.most_vertices`)."""
+    return grid_most_vertices(dim, refine)
 
 
 @dataclass
