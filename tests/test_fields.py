@@ -40,6 +40,34 @@ def test_positional_encoding_size_and_values():
     np.testing.assert_allclose(float(enc[9][0]), np.cos(2 * np.pi * -0.5), atol=1e-6)
 
 
+def test_the_frequency_window_by_hand_in_both_backends():
+    # x = 0.25, L = 3, opened = 1.4: band 0 whole, band 1 at 0.4, band 2 shut:
+    # [x, sin(pi x), cos(pi x), 0.4 sin(2 pi x), 0.4 cos(2 pi x), 0, 0] = [.25, .7071, .7071, .4, 0, 0, 0]
+    from mitnerf.reference.fields.encoding import positional_encoding as positional_encoding_torch
+    want = [0.25, np.sqrt(0.5), np.sqrt(0.5), 0.4, 0.0, 0.0, 0.0]
+    got = positional_encoding([Float(0.25)], 3, Float(1.4))
+    np.testing.assert_allclose([float(v[0]) for v in got], want, atol=1e-6)
+    np.testing.assert_allclose(positional_encoding_torch(torch.tensor([[0.25]]), 3, 1.4)[0].numpy(), want, atol=1e-6)
+
+
+def test_the_field_opens_its_window_with_the_step_as_its_twin_does():
+    # pe_window = 100 steps for L = 4: at step 30, 1.2 bands are open; with no step, all are
+    cfg = NeRFConfig(dim=3, width=16, depth=4, pos_L=4, dir_L=2, pe_window=100)
+    w = init_weights(cfg, 2)
+    x = np.random.default_rng(3).uniform(-1, 1, (64, 3)).astype(np.float32)
+    f, tf = NeRFField(cfg), TorchField(cfg)
+    p = f.from_numpy(w)
+    tf.load_numpy(w)
+    xs = [Float(v) for v in x.T]
+    full, at30 = (np.asarray(f.density({**p, **step}, xs)) for step in ({}, {"step": Float(30.0)}))
+    tf.schedule(30)
+    with torch.no_grad():
+        np.testing.assert_allclose(at30, tf.density(torch.from_numpy(x)).numpy(), atol=2e-6)
+    assert np.abs(at30 - full).max() > 1e-3          # the shut bands change the field
+    enc = positional_encoding(xs, 4, Float(30.0 * 4 / 100))
+    assert not np.asarray(enc[3 + 6 * 2]).any() and np.asarray(enc[3 + 6]).any()
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_modes_and_twin_agree_and_weights_round_trip(dim):
     cfg = NeRFConfig(dim=dim, width=16, depth=4, pos_L=5, dir_L=3)

@@ -11,13 +11,19 @@ import math
 import drjit as dr
 
 
-def positional_encoding(x: list, L: int) -> list:
+def positional_encoding(x: list, L: int, opened=None) -> list:
     """NeRF's gamma: ``[x_j] + [sin(2^k pi x_j)]_j + [cos(2^k pi x_j)]_j`` for k < L, ``D * (1 + 2 L)`` arrays
-    ``[n]`` of D arrays ``x`` ``[n]`` (normalised, about [-1, 1]); ``L = 0``: the raw coordinates."""
+    ``[n]`` of D arrays ``x`` ``[n]`` (normalised, about [-1, 1]); ``L = 0``: the raw coordinates. ``opened``: how
+    many frequencies are let through (a Float, FreeNeRF's window): band k is scaled by ``clip(opened - k, 0, 1)``;
+    None: all of them."""
     out = list(x)
     for k in range(L):
         sc = [dr.sincos(xi * float(2.0 ** k * math.pi)) for xi in x]
-        out += [s for s, _ in sc] + [c for _, c in sc]
+        if opened is None:
+            out += [s for s, _ in sc] + [c for _, c in sc]
+        else:
+            w = dr.clip(opened - k, 0.0, 1.0)
+            out += [s * w for s, _ in sc] + [c * w for _, c in sc]
     return out
 
 

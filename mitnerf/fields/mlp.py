@@ -47,6 +47,10 @@ class NeRFConfig(FieldConfig):
     when depth >= 4, else no skip; -1: no skip."""
     view_dependent: bool = setting(True, flag="--view-dependence")
     """Feed the encoded view direction to the colour branch."""
+    pe_window: int = setting(0, lo=0, hi=10 ** 9, unit="steps")
+    """FreeNeRF's frequency regularisation: the positional encoding's frequencies open one after another, linearly,
+    over the first ``pe_window`` steps of training (frequency k fully open at step ``(k + 1) pe_window / pos_L``),
+    so the field fits coarse structure before fine; 0: all open from the start."""
     density_bias: float = setting(-1.0, lo=-1e3, hi=1e3)
     """Added to the density head's initial bias: a slightly transparent start."""
     mode: str = setting("tensor", choices=MODES)
@@ -105,7 +109,9 @@ class NeRFField(Field):
     def query(self, params: dict, x, d, keep=None):
         """Density and colour at ``x`` seen along ``d``; ``d=None`` (:meth:`density`): the colour is not wanted."""
         cfg, L = self.cfg, self.layers
-        enc_x = positional_encoding([xi * (1.0 / cfg.bound) for xi in x], cfg.pos_L)
+        step = params.get("step") if cfg.pe_window else None
+        opened = None if step is None else step * (cfg.pos_L / cfg.pe_window)
+        enc_x = positional_encoding([xi * (1.0 / cfg.bound) for xi in x], cfg.pos_L, opened)
         if self.mode == "native" and d is None:     # the kernel wants a direction; it does not change the density
             d = [dr.zeros(Float, dr.width(x[0]))] + [dr.full(Float, 1.0, dr.width(x[0]))] * (cfg.dim - 1)
         enc_d = direction_encoding(list(d), cfg.dir_L) if cfg.view_dependent and d is not None else []

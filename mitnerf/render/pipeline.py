@@ -144,6 +144,11 @@ class Model(FieldSet):
         return join_params(**{g: f.schedule(step, split_params(params, g)) or {}
                               for g, f in self.fields.items()}) or None
 
+    def at_step(self, params: dict, step) -> dict:
+        """``params`` with the training step (a Float; None: training is over) under each field's ``step`` key: what
+        a field's step-dependent schedule reads (:attr:`~mitnerf.fields.mlp.NeRFConfig.pe_window`)."""
+        return params if step is None else {**params, **{f"{g}.step": step for g in self.fields}}
+
     def regularizer(self, params: dict, seed: UInt32):
         """Sum of the fields' regularisers (e.g. total variation), or None."""
         return sum_terms(f.regularizer(split_params(params, g), seed) for g, f in self.fields.items())

@@ -90,6 +90,9 @@ class Backend(ABC):
         self.model_cfg, self.cfg = model_cfg, train_cfg
         self.dim, self.bound, self.near, self.far = dim, float(bound), float(near), float(far)
         self.occupancy, self.rays, self.n_pixels = None, None, 0
+        self.step_reached: int | None = None
+        """The last training step begun (None: none yet, or unknown, as after loading a checkpoint): a field's
+        step-dependent schedule renders as at this step (:meth:`~mitnerf.render.pipeline.Model.at_step`)."""
 
     def set_data(self, rays) -> None:
         """Hold the training rays (:class:`~mitnerf.data.rays.TrainingRays`, or a :class:`RaySet` of every one):

@@ -61,7 +61,9 @@ class DrJitBackend(Backend):
         return {k: self.opt[k] for k in self.opt.keys()}
 
     def detached(self) -> dict:
-        return {k: dr.detach(v) for k, v in self.params.items()}
+        """The parameters without gradients, at the step reached (:meth:`Model.at_step`)."""
+        return self.model.at_step({k: dr.detach(v) for k, v in self.params.items()},
+                                  None if self.step_reached is None else dr.opaque(Float, self.step_reached))
 
     def _new_step(self):
         # no reference to the backend in the closure: the cyclic GC could free it while a frozen call records
@@ -72,16 +74,16 @@ class DrJitBackend(Backend):
 
         local = not all(f.scattered for f in model.fields.values())     # see Field.scattered
 
-        def step(opt, inputs, seed, lr, occupancy):
+        def step(opt, inputs, seed, lr, index, occupancy):
             with dr.scoped_set_flag(dr.JitFlag.ScatterReduceLocal, local):
-                return traced(opt, inputs, seed, lr, occupancy)
+                return traced(opt, inputs, seed, lr, index, occupancy)
 
-        def traced(opt, inputs, seed, lr, occupancy):
+        def traced(opt, inputs, seed, lr, index, occupancy):
             set_learning_rate(opt, lr)
             rows, data = dr.arange(UInt32, B), {}
             for k, start, width in zip(STEP_INPUTS, np.cumsum([0, *widths]).tolist(), widths):  # the batch's columns
                 data[k] = [dr.gather(Float, inputs, rows + (start + c) * B) for c in range(width)]
-            params = {k: opt[k] for k in opt.keys()}
+            params = model.at_step({k: opt[k] for k in opt.keys()}, index)
             o = data["origins"]
             d = d_centre = data["directions"]
             if jitter:                  # a ray through a random point of the pixel (twin: backend.jitter_np)
@@ -124,8 +126,9 @@ class DrJitBackend(Backend):
         dr.eval(self._inputs)
         dr.sync_thread()                # the steps in flight have read the last batch
         self._inputs.numpy()[:] = batch
+        self.step_reached = index
         return self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
-                            occ.lookup if occ is not None else None)
+                            dr.opaque(Float, index), occ.lookup if occ is not None else None)
 
     def release(self) -> None:
         dr.sync_thread()

@@ -40,9 +40,23 @@ class TorchBackend(Backend):
         if old is not None:
             self.opt.state.update({p: old.state[p] for p in self.model.parameters() if p in old.state})
 
+    @property
+    def step_reached(self) -> int | None:
+        return self._step_reached
+
+    @step_reached.setter
+    def step_reached(self, step: int | None) -> None:
+        """Also what the twins with a step-dependent schedule render at (their ``step``)."""
+        self._step_reached = step
+        model = getattr(self, "model", None)            # None while Backend.__init__ sets it
+        for f in model.fields.values() if model is not None else ():
+            if hasattr(f, "step"):
+                f.step = step
+
     def step(self, index: int, seed: int, lr: float):
         if self.model.schedule(index):
             self._rebuild_optimizer()
+        self.step_reached = index
         self.update_occupancy(index, seed)
         for group in self.opt.param_groups:
             group["lr"] = lr

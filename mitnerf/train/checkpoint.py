@@ -71,7 +71,8 @@ def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -
     manifest = {"format": FORMAT, "version": VERSION, "field": run.recipe.model.field, "dim": be.dim,
                 "backend": be.name, "recipe": run.recipe.to_dict(), "bound": be.bound, "near": be.near,
                 "far": be.far, "dataset": run.dataset_meta,
-                "loop": {"step": run.state.step, "train_time": run.state.train_time}, "best": run.best,
+                "loop": {"step": run.state.step, "train_time": run.state.train_time, "step_reached": be.step_reached},
+                "best": run.best,
                 "metrics": metrics or {}, "arrays": arrays}
     atomic_write_text(folder / "history.json", json_text(run.state.history, indent=None))
     atomic_write_text(folder / "manifest.json", json_text(manifest))
@@ -139,6 +140,8 @@ def read_manifest(path: str | Path) -> dict:
         step, train_time = m["loop"]["step"], m["loop"]["train_time"]     # a list or string: TypeError
         assert type(step) is int and step >= 0 and type(train_time) in (int, float)
         assert math.isfinite(train_time) and train_time >= 0
+        reached = m["loop"].setdefault("step_reached", step - 1 if step > 0 else None)   # older checkpoints
+        assert reached is None or (type(reached) is int and 0 <= reached < max(step, 1))
         assert all(isinstance(m.get(key, {}), dict) for key in ("dataset", "best", "metrics"))
         assert all(isinstance(m.get("dataset", {}).get(key, ""), str) for key in ("path", "mesh", "texture", "scene"))
     except (AssertionError, KeyError, TypeError, ValueError, AttributeError):
@@ -229,6 +232,8 @@ def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str 
     except (OSError, ValueError, TypeError):                 # TypeError: not a JSON object
         history = new_history()
     loop = LoopState(int(m["loop"]["step"]), float(m["loop"]["train_time"]), history)
+    be.step_reached = m["loop"]["step_reached"]         # a step-dependent schedule renders as it was trained
     run = Run(be, recipe, dict(m.get("dataset") or {}), loop, dict(m.get("best") or {}))
-    return run, {"weights": weights, "optimizer": optim, "state": loop, "best": run.best, "best_weights": best or None,
+    return run, {"weights": weights, "optimizer": optim, "state": loop, "step_reached": be.step_reached,
+                 "best": run.best, "best_weights": best or None,
                  "backend": m["backend"], "metrics": m.get("metrics", {})}

@@ -105,6 +105,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     if resume is not None:
         be.set_weights(resume["weights"])
         be.load_optimizer_state(resume["optimizer"])
+        be.step_reached = resume.get("step_reached")
         run.state, run.best = resume["state"], dict(resume.get("best", {}))
         run.snapshot = resume.get("best_weights")
     val = dataset.splits.get("val")             # a few validation views, evenly spread
@@ -134,6 +135,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     except (TrainingFailed, Interrupted) as exc:
         if isinstance(exc, TrainingFailed) and run.snapshot is not None:
             be.set_weights(run.snapshot)
+            be.step_reached = run.best["step"] - 1
             exc.args = (f"{exc.args[0]}; kept the weights of step {run.best['step']} "
                         f"(validation {run.best['val_psnr']:.2f} dB)",)
         exc.run = run
@@ -144,6 +146,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     if cfg.keep_best and run.best and last is not None and run.best["step"] != run.state.step \
             and keeps_best(run.best["val_psnr"], last, cfg.keep_best_margin):
         be.set_weights(run.snapshot)
+        be.step_reached = run.best["step"] - 1          # the weights were trained through that step
         run.notes.append(f"kept the checkpoint of step {run.best['step']} (validation {run.best['val_psnr']:.2f} dB; "
                          f"the last step, {run.state.step}, had {last:.2f} dB)")
     return run

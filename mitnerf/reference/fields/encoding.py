@@ -7,10 +7,12 @@ import math
 import torch
 
 
-def positional_encoding(x: torch.Tensor, L: int) -> torch.Tensor:
-    """``x [n, D]`` -> ``[n, D (1 + 2 L)]``: x, then sin and cos of 2^k pi x per k."""
+def positional_encoding(x: torch.Tensor, L: int, opened: float | None = None) -> torch.Tensor:
+    """``x [n, D]`` -> ``[n, D (1 + 2 L)]``: x, then sin and cos of 2^k pi x per k, band k scaled by
+    ``clip(opened - k, 0, 1)`` when ``opened`` is given."""
     a = [x * float(2.0 ** k * math.pi) for k in range(L)]
-    return torch.cat([x] + [f(ak) for ak in a for f in (torch.sin, torch.cos)], dim=-1)
+    w = [1.0 if opened is None else min(max(opened - k, 0.0), 1.0) for k in range(L)]
+    return torch.cat([x] + [f(ak) * wk for ak, wk in zip(a, w) for f in (torch.sin, torch.cos)], dim=-1)
 
 
 def angle_harmonics(d: torch.Tensor, L: int) -> torch.Tensor:

@@ -49,12 +49,20 @@ class NeRFField(TwinField):
         self.trunk = nn.ModuleList(nn.Linear(*shapes[f"trunk.{k}"]) for k in range(cfg.depth))
         self.sigma = nn.Linear(*shapes["sigma"])
         self.color = nn.ModuleList(nn.Linear(*shapes[f"color.{k}"]) for k in range(2))
+        self.step: int | None = None
+        """The last training step begun (``pe_window``'s schedule); None: all frequencies open."""
+
+    def schedule(self, step: int) -> bool:
+        self.step = step
+        return False
 
     def init_params(self, seed: int = 0) -> None:
         self.load_numpy(init_weights(self.cfg, seed))
 
     def _trunk(self, x: torch.Tensor) -> torch.Tensor:
-        enc = positional_encoding(x / self.cfg.bound, self.cfg.pos_L)
+        cfg = self.cfg
+        opened = None if self.step is None or not cfg.pe_window else self.step * (cfg.pos_L / cfg.pe_window)
+        enc = positional_encoding(x / cfg.bound, cfg.pos_L, opened)
         h = enc
         for k, layer in enumerate(self.trunk):
             if k == self.cfg.skip and k > 0:
