@@ -72,10 +72,13 @@ def test_window_shop_on_the_reports_own_data(tmp_path):
     ds = make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=100, n_val=2, n_test=4, resolution=8), progress=False)
     npz = save_dataset(ds, tmp_path / "lego.npz", "tiny_nerf")
     cfg = window_shop.quick()
-    cfg.data, cfg.additions = str(npz), False
+    cfg.data, cfg.additions, cfg.few_views, cfg.pe_window = str(npz), False, 5, 20
+    args = [window_shop.nerf_recipe(cfg, n, 6, 64, True, steps=k).model.field_args for n, k in ((5, 2), (25, 1))]
+    assert args[0]["pe_window"] == 40 and "pe_window" not in args[1]       # the few-view rows' window, per step
     rows = window_shop.run(cfg, tmp_path / "out")
     assert [r["row"] for r in rows] == ["7", "8"] and all(np.isfinite(r["psnr_ours"]) for r in rows)
-    assert "view 101" in (tmp_path / "out" / "report.md").read_text()
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "view 101" in report and "frequencies over the first 20 steps" in report
     few = type(ds)({"train": ds["train"].subset(slice(0, 20)), "val": ds["val"], "test": ds["test"]}, ds.near, ds.far)
     small = save_dataset(few, tmp_path / "small.npz", "tiny_nerf")
     cfg.data = str(small)

@@ -31,7 +31,10 @@ BUDGETS = {
     "pixelnerf": lambda c: (f"pixelNeRF per encoder: the recipe's budget; NeRF: {c.nerf_iters} steps or "
                             f"{c.nerf_time_budget:g} s, {c.draws} draws per k"),
     "window-shop": lambda c: (f"{c.iters} steps or {c.time_budget:g} s per row of {c.batch_rays} rays, "
-                              f"{c.architecture} MLP, " + (f"{Path(c.data).name}" if c.data else f"{len(c.objects)} objects")),
+                              f"{c.architecture} MLP, "
+                              + (f"{Path(c.data).name}" if c.data else f"{len(c.objects)} objects")
+                              + (f", rows of at most {c.few_views} images with FreeNeRF's frequency window over "
+                                 f"{c.pe_window} steps" if c.few_views else "")),
 }
 """Per experiment: its config -> its budget in words."""
 

@@ -2,7 +2,8 @@
 
 Every combination of ``COMBINATIONS`` runs on each of ``objects``: N images are the first N photos
 of one pool; the NeRF is the ``vanilla-3d`` recipe with the combination's settings and no fine
-pass, every row with the same time budget and at most ``iters`` steps. Writes ``results.csv``,
+pass (and FreeNeRF's frequency window where the images are few, ``Config.few_views``), every row with the same
+time budget and at most ``iters`` steps. Writes ``results.csv``,
 ``report.md``, ``psnr_vs_views.png`` and ``thumbnails.png``.
 """
 
@@ -52,6 +53,13 @@ class Config:
     """Which of the report's combinations to run."""
     architecture: str = setting("ours", choices=tuple(ARCHITECTURES))
     """``ours`` or ``paper`` (``ARCHITECTURES``)."""
+    few_views: int = setting(0, lo=0, hi=100_000)
+    """Rows of at most this many images open their positional encoding's frequencies over ``pe_window`` steps
+    (FreeNeRF's frequency regularisation, ``NeRFConfig.pe_window``): fitted to few views, the field otherwise
+    explains each with fine detail that the other views never see, floaters in a new one; 0: no row, the report's
+    NeRF. The additions table has row 7 the other way."""
+    pe_window: int = setting(1000, lo=1, hi=10 ** 9, unit="steps")
+    """The few-view rows' window (half the report's 2000 iterations); a row with more steps scales it alike."""
     iters: int = setting(2000, lo=1, hi=10 ** 9)
     """Steps per row at most (the report's)."""
     batch_rays: int = setting(1024, lo=1, hi=1 << 22)
@@ -78,8 +86,12 @@ def _recipe(name: str, cfg: Config, steps: int = 1, **settings):
     return get_recipe(name).override(**settings, time_budget=steps * cfg.time_budget, val_every=0, seed=cfg.seed)
 
 
-def nerf_recipe(cfg: Config, L: int, n_coarse: int, vd: bool, n_fine: int = 0, steps: int = 1, **arch):
-    """The report's NeRF at (L, N_c, view dependence); ``steps`` times the steps and budget; ``arch``: MLP settings."""
+def nerf_recipe(cfg: Config, images: int, L: int, n_coarse: int, vd: bool, n_fine: int = 0, steps: int = 1,
+                **arch):
+    """The report's NeRF for ``images`` at (L, N_c, view dependence), with the frequency window where the images are
+    few (``cfg.few_views``); ``steps`` times the steps and budget; ``arch``: MLP settings."""
+    if images <= cfg.few_views:
+        arch = {"pe_window": steps * cfg.pe_window, **arch}
     return _recipe("vanilla-3d", cfg, steps, **{**ARCHITECTURES[cfg.architecture], **arch}, pos_L=L,
                    n_coarse=n_coarse, n_fine=n_fine, view_dependent=vd, iters=steps * cfg.iters,
                    batch_rays=cfg.batch_rays)
@@ -114,13 +126,15 @@ def sources(cfg: Config) -> dict:
 def run(cfg: Config, out: Path) -> list[dict]:
     rows, thumbs = [], {}
     for obj, (ds, tests) in sources(cfg).items():
-        jobs = [(f"{i}", "report", COMBINATIONS[i][0], nerf_recipe(cfg, *COMBINATIONS[i][1:4]))
+        jobs = [(f"{i}", "report", COMBINATIONS[i][0], nerf_recipe(cfg, *COMBINATIONS[i][:4]))
                 for i in cfg.combinations]
         if cfg.additions:
-            jobs += [("9, twice the steps", "additions", 5, nerf_recipe(cfg, 10, 64, True, steps=2)),
-                     ("6, view dependence on", "additions", 10, nerf_recipe(cfg, 6, 64, True)),
-                     ("7, four direction frequencies", "additions", 5, nerf_recipe(cfg, 6, 64, True, dir_L=4))]
-            jobs += [(f"fine pass, {v} images", "additions", v, nerf_recipe(cfg, 10, 64, True, n_fine=64))
+            jobs += [("9, twice the steps", "additions", 5, nerf_recipe(cfg, 5, 10, 64, True, steps=2)),
+                     ("6, view dependence on", "additions", 10, nerf_recipe(cfg, 10, 6, 64, True)),
+                     ("7, four direction frequencies", "additions", 5, nerf_recipe(cfg, 5, 6, 64, True, dir_L=4)),
+                     ("7, no frequency window" if cfg.few_views >= 5 else "7, frequency window", "additions", 5,
+                      nerf_recipe(cfg, 5, 6, 64, True, pe_window=0 if cfg.few_views >= 5 else cfg.pe_window))]
+            jobs += [(f"fine pass, {v} images", "additions", v, nerf_recipe(cfg, v, 10, 64, True, n_fine=64))
                      for v in (5, 25) if v <= cfg.pool_views]
             jobs += [(f"{name} recipe, {v} images", "additions", v, _recipe(name, cfg))
                      for v in cfg.addition_views for name in ("grid-3d", "hashgrid-3d")]
@@ -181,10 +195,14 @@ def _write(cfg: Config, rows: list[dict], out: Path) -> None:
             "protocol (view 101) and by ours (every held-out view, 100 to 105)." if cfg.data else
             f"Objects {', '.join(cfg.objects)}, {cfg.resolution} x {cfg.resolution} photos (random, noisy, upper "
             f"hemisphere; N images = the first N of one pool), {cfg.test_views} test views on the 360 degree orbit.")
+    few = (f"rows of at most {cfg.few_views} images open their positional encoding's frequencies over the first "
+           f"{cfg.pe_window} steps (FreeNeRF's frequency regularisation; the report's NeRF has none)"
+           if cfg.few_views else "no frequency window")
     write_report(out, "Window shopping: the report's table, row for row", [
         ("Set-up", f"{data} NeRF: recipe `vanilla-3d` with the {cfg.architecture} MLP ({arch['depth']} x "
                    f"{arch['width']}, skip into layer {arch['skip']}, {arch['dir_L']} direction frequencies), no fine "
-                   f"pass; every row at most {cfg.iters} steps of {cfg.batch_rays} rays and {cfg.time_budget:g} s. "
+                   f"pass; every row at most {cfg.iters} steps of {cfg.batch_rays} rays and {cfg.time_budget:g} s; "
+                   f"{few}. "
                    f"Deviations from the report: {'' if cfg.data else 'our objects (not the tiny-NeRF Lego), '}CPU "
                    "(2 cores) instead of a GPU, a time cap per row."),
         ("The report's combinations", table),
