@@ -221,9 +221,17 @@ def test_document_from_recorded_rows(tmp_path):
 
     path = tmp_path / "results.json"
     record("window-shop", Config(), table2_rows(), 600.0, "mitnerf experiment window-shop --out x", path=path)
+    added = {"object": "lego", "table": "additions", "row": "7, no frequency window", "images": 5, "psnr": 17.3,
+             "ssim": 0.7, "steps": 2000, "train_time": 54.0, "status": "ok"}
+    record("window-shop", Config(data="lego.npz", few_views=10), table2_rows("lego", 1.0) + [added], 600.0,
+           "mitnerf experiment window-shop --out y --set data=lego.npz", path=path)    # a file's own run
     results = json.loads(path.read_text())
     text = document(results, None, "python benchmarks/report.py")
     assert "| 8 | 5 | 6 | 128 | on | 15.0 | 15.00 / 0.800 |" in text
+    mine = text.split("Table 2 on the report's own data: lego")[1]
+    assert "| 8 | 5 | 6 | 128 | on | 15.0 | 16.00 / 0.800 |" in mine
+    assert "| 7, no frequency window | lego | 5 | 17.30 |" in mine
+    assert "rows of at most 10 images with FreeNeRF's frequency window over 1000 steps" in mine
     assert "mitnerf experiment window-shop --out x" in text
     assert "not run (`mitnerf experiment pe`)" in text
     quoted = re.findall(r'"([^"|]{12,})"', text)

@@ -84,3 +84,34 @@ def test_window_shop_on_the_reports_own_data(tmp_path):
     cfg.data = str(small)
     with pytest.raises(DataError, match="needs 100 training views"):
         window_shop.run(cfg, tmp_path / "out2")
+
+
+def test_window_shop_additions_count_the_views_a_file_has(tmp_path, monkeypatch):
+    """A file's pool is its first 100 views: the additions' "200 images" rows train on 100 and say so, and every
+    5-image row of the report's table but not the 25-image fine pass gets the frequency window (few_views 5)."""
+    from types import SimpleNamespace
+
+    from mitnerf.data.formats import save_dataset
+    from mitnerf.data.generate import make_dataset
+    from mitnerf.data.rig import RigConfig
+    from mitnerf.experiments import window_shop
+    from mitnerf.scenes.registry import get_scene
+
+    ds = make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=100, n_val=2, n_test=4, resolution=4), progress=False)
+    seen = []
+
+    def fake_row(data, recipe, labels, **_):             # no training: what each row would train on
+        seen.append((labels["row"], len(data["train"]), recipe.model.field_args.get("pe_window", 0)))
+        rec = SimpleNamespace(psnr=20.0, ssim=0.5, renders=None)
+        return {**labels, "psnr": 20.0}, SimpleNamespace(record=lambda *a, **k: rec), rec
+
+    monkeypatch.setattr(window_shop, "train_row", fake_row)
+    monkeypatch.setattr(window_shop, "_draw", lambda *a: None)
+    cfg = window_shop.quick()
+    cfg.data, cfg.combinations, cfg.addition_views, cfg.few_views = str(save_dataset(
+        ds, tmp_path / "lego.npz", "tiny_nerf")), (7, 4), (5, 200), 5
+    window_shop.run(cfg, tmp_path / "out")
+    rows = {label: (n, window) for label, n, window in seen}
+    assert rows["grid-3d recipe, 100 images"][0] == 100 and not any("200" in label for label in rows)
+    assert rows["7"][1] == cfg.pe_window and rows["4"][1] == 0 and rows["fine pass, 25 images"][1] == 0
+    assert rows["7, no frequency window"][1] == 0 and rows["fine pass, 5 images"][1] == cfg.pe_window

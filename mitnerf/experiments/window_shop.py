@@ -134,10 +134,11 @@ def run(cfg: Config, out: Path) -> list[dict]:
                      ("7, four direction frequencies", "additions", 5, nerf_recipe(cfg, 5, 6, 64, True, dir_L=4)),
                      ("7, no frequency window" if cfg.few_views >= 5 else "7, frequency window", "additions", 5,
                       nerf_recipe(cfg, 5, 6, 64, True, pe_window=0 if cfg.few_views >= 5 else cfg.pe_window))]
+            pool = len(ds["train"])                   # the photos there are: a file's 100 views, or pool_views
             jobs += [(f"fine pass, {v} images", "additions", v, nerf_recipe(cfg, v, 10, 64, True, n_fine=64))
-                     for v in (5, 25) if v <= cfg.pool_views]
+                     for v in (5, 25) if v <= pool]
             jobs += [(f"{name} recipe, {v} images", "additions", v, _recipe(name, cfg))
-                     for v in cfg.addition_views for name in ("grid-3d", "hashgrid-3d")]
+                     for v in sorted({min(v, pool) for v in cfg.addition_views}) for name in ("grid-3d", "hashgrid-3d")]
         for label, table, views, recipe in jobs:
             first, *more = tests
             data = Dataset({"train": ds["train"].subset(slice(0, views)), "test": tests[first]}, ds.near, ds.far,
