@@ -129,11 +129,12 @@ def run(cfg: Config, out: Path) -> list[dict]:
         jobs = [(f"{i}", "report", COMBINATIONS[i][0], nerf_recipe(cfg, *COMBINATIONS[i][:4]))
                 for i in cfg.combinations]
         if cfg.additions:
+            windowed = cfg.few_views >= 5                     # row 7 has the window: its addition has none
             jobs += [("9, twice the steps", "additions", 5, nerf_recipe(cfg, 5, 10, 64, True, steps=2)),
                      ("6, view dependence on", "additions", 10, nerf_recipe(cfg, 10, 6, 64, True)),
                      ("7, four direction frequencies", "additions", 5, nerf_recipe(cfg, 5, 6, 64, True, dir_L=4)),
-                     ("7, no frequency window" if cfg.few_views >= 5 else "7, frequency window", "additions", 5,
-                      nerf_recipe(cfg, 5, 6, 64, True, pe_window=0 if cfg.few_views >= 5 else cfg.pe_window))]
+                     ("7, no frequency window" if windowed else "7, frequency window", "additions", 5,
+                      nerf_recipe(cfg, 5, 6, 64, True, pe_window=0 if windowed else cfg.pe_window))]
             pool = len(ds["train"])                   # the photos there are: a file's 100 views, or pool_views
             jobs += [(f"fine pass, {v} images", "additions", v, nerf_recipe(cfg, v, 10, 64, True, n_fine=64))
                      for v in (5, 25) if v <= pool]

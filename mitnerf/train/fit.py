@@ -127,6 +127,11 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
             run.best = {"step": step, "val_psnr": value}
             run.snapshot = be.get_weights()
 
+    def restore_best() -> None:
+        """The best validation's weights, rendered as at the step they were trained through."""
+        be.set_weights(run.snapshot)
+        be.step_reached = run.best["step"] - 1
+
     try:
         run_loop(be.step, be.read, cfg, run.state, validate if val is not None else None,
                  desc=f"fit {recipe.name} ({be.name})")
@@ -134,8 +139,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
             validate(run.state.step)            # the last step's validation, unless the loop's was the last
     except (TrainingFailed, Interrupted) as exc:
         if isinstance(exc, TrainingFailed) and run.snapshot is not None:
-            be.set_weights(run.snapshot)
-            be.step_reached = run.best["step"] - 1
+            restore_best()
             exc.args = (f"{exc.args[0]}; kept the weights of step {run.best['step']} "
                         f"(validation {run.best['val_psnr']:.2f} dB)",)
         exc.run = run
@@ -145,8 +149,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     last = run.state.history["val_psnr"][-1] if val is not None else None
     if cfg.keep_best and run.best and last is not None and run.best["step"] != run.state.step \
             and keeps_best(run.best["val_psnr"], last, cfg.keep_best_margin):
-        be.set_weights(run.snapshot)
-        be.step_reached = run.best["step"] - 1          # the weights were trained through that step
+        restore_best()
         run.notes.append(f"kept the checkpoint of step {run.best['step']} (validation {run.best['val_psnr']:.2f} dB; "
                          f"the last step, {run.state.step}, had {last:.2f} dB)")
     return run

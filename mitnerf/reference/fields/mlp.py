@@ -50,11 +50,8 @@ class NeRFField(TwinField):
         self.sigma = nn.Linear(*shapes["sigma"])
         self.color = nn.ModuleList(nn.Linear(*shapes[f"color.{k}"]) for k in range(2))
         self.step: int | None = None
-        """The last training step begun (``pe_window``'s schedule); None: all frequencies open."""
-
-    def schedule(self, step: int) -> bool:
-        self.step = step
-        return False
+        """The step ``pe_window``'s schedule renders at, set by the torch engine (its ``step_reached``); None: all
+        frequencies open."""
 
     def init_params(self, seed: int = 0) -> None:
         self.load_numpy(init_weights(self.cfg, seed))
