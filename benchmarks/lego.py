@@ -18,11 +18,13 @@ not. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --au
 wall time. The default recipe takes the lego's density on a lattice twice as fine as its colour's
 (``Sizing.density_refine``); part ``single`` (``lego/single/600``) runs part ``600``'s command with ``--set
 density_refine=1``, one lattice for both in the same floats (more colour vertices): what that choice is measured
-against.
+against. Part ``grey`` (``lego/grey/3600``) runs part ``3600``'s command with ``--set view_color=grey``: the same
+lattice with one set of view harmonics shared by the three channels (``GridSettings.view_color``), half the
+colour's floats, so more steps in the hour and less memory.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single]
+    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -40,15 +42,16 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "800", "3600", "resolution", "auto", "single")
+PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
 """Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
-BUDGET_SINGLE = "600"
-"""Seconds of training of part ``single``: one lattice for density and colour, against part ``600``'s default."""
+VARIANTS = {"single": ("600", "density_refine=1"), "grey": ("3600", "view_color=grey")}
+"""Parts that run a budget's plain command with one ``--set``: ``(seconds, setting)``; ``single``: one lattice for
+density and colour, against part ``600``'s default; ``grey``: grey view harmonics, against part ``3600``'s."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -124,7 +127,8 @@ def main(argv=None) -> int:
     p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                    help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
                         "(fit --auto), resolution (the 3600 s field on views twice smaller and on its training "
-                        "views) and single (part 600 with one lattice for density and colour)")
+                        "views), single (part 600 with one lattice for density and colour) and grey (part 3600 with "
+                        "grey view harmonics)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -177,11 +181,12 @@ def main(argv=None) -> int:
             record_result(f"lego/auto/{BUDGET_AUTO}", v, line, run["command"], recipe=v["recipe"],
                           threads=TrainConfig().threads)
             continue
-        if budget == "single":
-            run = fit(args.data, BUDGET_SINGLE, f"single-{BUDGET_SINGLE}", "--set", "density_refine=1")
+        if budget in VARIANTS:
+            seconds, setting = VARIANTS[budget]
+            run = fit(args.data, seconds, f"{budget}-{seconds}", "--set", setting)
             v = values_of(run)
-            print(f"lego/single/{BUDGET_SINGLE}: {summary(v)}\n    {run['first']}")
-            record_result(f"lego/single/{BUDGET_SINGLE}", v, summary(v), run["command"], recipe=v["recipe"],
+            print(f"lego/{budget}/{seconds}: {summary(v)}\n    {run['first']}")
+            record_result(f"lego/{budget}/{seconds}", v, summary(v), run["command"], recipe=v["recipe"],
                           threads=TrainConfig().threads)
             continue
         run = fit(args.data, budget)

@@ -123,6 +123,38 @@ def test_box_grids_pass_the_backend_checks():
     box = dict(box=(-1.2, -0.9, -1.0, 1.1, 1.3, 0.8), cells=(1.0, 0.6, 0.8))
     assert check_parity("grid", 3, rays=24, samples=12, fine=0, field_args=box).ok
     assert check_parity("grid", 3, rays=24, samples=12, fine=0, field_args={**box, "density_refine": 2}).ok
+    assert check_parity("grid", 3, rays=24, samples=12, fine=0, field_args={**box, "view_color": "grey"}).ok
+
+
+def test_grey_harmonics_add_one_shared_term_to_each_channel_in_both_engines():
+    """Degree 1, grey: a vertex holds 3 + 3 floats, the channels' degree-0 terms (0.1, -0.2, 0.3) and one set of
+    band-1 weights (0.5, 0, -1). Towards d = (0.6, 0, 0.8) the shared term is 0.5 * 0.6 - 1 * 0.8 = -0.5, so the
+    colour is sigmoid((-0.4, -0.7, -0.2)) = (0.4013, 0.3318, 0.4502)."""
+    torch = pytest.importorskip("torch")
+    from mitnerf.fields.grid import harmonic_rgb
+    from mitnerf.reference.fields.grid import harmonic_rgb as twin_rgb
+
+    raw, d = [0.1, -0.2, 0.3, 0.5, 0.0, -1.0], [0.6, 0.0, 0.8]
+    got = harmonic_rgb([Float(v) for v in raw], [Float(v) for v in d], 4, 1, grey=True)
+    assert np.allclose([c[0] for c in got], [0.4013, 0.3318, 0.4502], atol=1e-4)
+    twin = twin_rgb(torch.tensor([raw]), torch.tensor([d]), 1, grey=True)
+    assert np.allclose(twin.numpy()[0], [0.4013, 0.3318, 0.4502], atol=1e-4)
+
+
+def test_a_grey_grid_keeps_the_rgb_lattice_in_half_the_colour_floats():
+    from mitnerf.errors import ConfigError
+    from mitnerf.fields.hashlinear import HashLinearConfig
+
+    rgb = GridConfig(dim=3, resolution=9, view_dependent=True, density_refine=2)
+    grey = GridConfig(dim=3, resolution=9, view_dependent=True, density_refine=2, view_color="grey")
+    assert (rgb.color_floats, grey.color_floats) == (12, 6)
+    assert grey.refined_share == rgb.refined_share                     # the same lattice when sized
+    assert GridConfig(dim=3, resolution=9, view_color="grey").color_floats == 3     # no view dependence: RGB
+    f = GridField(grey)
+    arrays = f.init_numpy(0)
+    assert arrays["color"].shape[-1] == 6 and f.resolution_of(f.from_numpy(arrays)) == 9
+    with pytest.raises(ConfigError, match="view_color=rgb"):
+        HashLinearConfig(dim=3, resolutions=(5, 9), view_color="grey")
 
 
 def test_occupancy_keeps_every_sample_with_density():

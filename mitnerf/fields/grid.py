@@ -42,6 +42,11 @@ class GridSettings(FieldConfig):
 
     sh_degree: int = setting(1, lo=1, hi=8, flag="--sh-degree")
     """Degree of the view-direction harmonics when the colour is view-dependent: up to 8 in 2D, 2 in 3D."""
+    view_color: str = setting("rgb", choices=("rgb", "grey"))
+    """What varies with the view: ``rgb``, each channel with harmonics of its own (``3 K`` floats a vertex); ``grey``,
+    one set of harmonics above degree 0 added to all three channels (``3 + K - 1``): a white light's highlights on
+    a dielectric are grey, and at degree 1 a vertex holds half the floats, so a step reads and writes half the
+    colour on the lattice ``rgb`` would have (the dense grid; ``benchmarks/lego.py`` part ``grey``)."""
     density_init: float = setting(-1.0, lo=-1e3, hi=1e3)
     """Initial raw density everywhere (softplus(-1) = 0.31: slightly transparent)."""
     density_scale: float = setting(10.0, lo=0, hi=1e9)
@@ -57,9 +62,20 @@ class GridSettings(FieldConfig):
 
     @property
     def color_coeffs(self) -> int:
+        """Harmonics of the view direction: ``K``, 1 without view dependence."""
         if not self.view_dependent:
             return 1
         return 1 + 2 * self.sh_degree if self.dim == 2 else (self.sh_degree + 1) ** 2
+
+    @property
+    def grey(self) -> bool:
+        """Whether the harmonics above degree 0 are shared by the three channels (:attr:`view_color`)."""
+        return self.view_color == "grey" and self.color_coeffs > 1
+
+    @property
+    def color_floats(self) -> int:
+        """Colour floats a vertex: ``3 K``, or ``3 + K - 1`` with grey harmonics."""
+        return 3 + self.color_coeffs - 1 if self.grey else 3 * self.color_coeffs
 
 
 @dataclass
@@ -140,7 +156,8 @@ class GridConfig(GridSettings):
     @property
     def refined_share(self) -> float:
         """The share of an unrefined lattice's vertices this grid may keep for the same floats: ``(1 + 3 K) / (k^D +
-        3 K)`` (``K`` colour coefficients, ``k`` = :attr:`density_refine`); 1 unrefined."""
+        3 K)`` (``K`` colour coefficients, ``k`` = :attr:`density_refine`); 1 unrefined. Grey harmonics keep the
+        share of ``rgb`` ones: the same lattice, in fewer floats."""
         C, k = 3 * self.color_coeffs, self.density_refine
         return (1 + C) / (k ** self.dim + C)
 
@@ -151,7 +168,7 @@ class GridConfig(GridSettings):
     def resolution_of_sizes(self, n_density: int, n_color: int) -> int:
         """The colour lattice's fullest axis of a grid with ``n_density`` density floats and ``n_color`` colour ones
         (:meth:`resolution_with`); sizes that fit no lattice of this config are refused."""
-        C = 3 * self.color_coeffs
+        C = self.color_floats
         res = self.resolution_with(n_color // C) if n_color % C == 0 else None
         if res is None or int(np.prod(self.density_lattice(res))) != n_density:
             raise CheckpointError(f"a grid of {n_density} density and {n_color} colour values fits no lattice of this "
@@ -241,10 +258,15 @@ def view_basis(d: list, degree: int) -> list:
     return out
 
 
-def harmonic_rgb(raw: list, d: list, K: int, degree: int) -> list:
-    """RGB from ``3 K`` raw colour coefficients (channel-major) at unit view directions ``d``: the harmonics'
-    weighted sum per channel (none when ``K`` is 1), then a sigmoid. Dr.Jit arrays."""
-    if K > 1:
+def harmonic_rgb(raw: list, d: list, K: int, degree: int, grey: bool = False) -> list:
+    """RGB from raw colour coefficients at unit view directions ``d``: ``3 K`` (channel-major), the harmonics'
+    weighted sum per channel (none when ``K`` is 1); ``grey``: ``3 + K - 1``, each channel's own degree-0 term plus
+    one weighted sum of the other harmonics shared by all three. Then a sigmoid. Dr.Jit arrays."""
+    if grey:
+        basis = view_basis(list(d), degree)
+        shared = sum(raw[2 + k] * basis[k] for k in range(1, K))
+        raw = [raw[c] + shared for c in range(3)]
+    elif K > 1:
         basis = view_basis(list(d), degree)
         raw = [sum(raw[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
     return [sigmoid(r) for r in raw]
@@ -263,7 +285,7 @@ class LatticeField(Field):
     def query(self, params, x, d, keep=None):
         sigma, corners = self._sigma(params, x)
         raw = self.raw_color(params, corners, True if keep is None else keep(sigma))
-        return sigma, harmonic_rgb(raw, d, self.cfg.color_coeffs, self.cfg.sh_degree)
+        return sigma, harmonic_rgb(raw, d, self.cfg.color_coeffs, self.cfg.sh_degree, self.cfg.grey)
 
 
 class GridField(LatticeField):
@@ -273,7 +295,7 @@ class GridField(LatticeField):
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         cfg, res = self.cfg, self.cfg.initial_resolution
         shape = tuple(cfg.lattice(res)[::-1])         # numpy order: x last
-        color = np.random.default_rng(seed).normal(0, 0.01, shape + (3 * cfg.color_coeffs,)).astype(np.float32)
+        color = np.random.default_rng(seed).normal(0, 0.01, shape + (cfg.color_floats,)).astype(np.float32)
         return {"density": np.full(cfg.density_lattice(res)[::-1], cfg.density_init / cfg.density_scale, np.float32),
                 "color": color}
 
@@ -293,7 +315,7 @@ class GridField(LatticeField):
     def to_numpy(self, params) -> dict:
         shape = tuple(self.shape_of(params)[::-1])
         return {"density": np.asarray(params["density"]).reshape(self.density_shape_of(params)[::-1]),
-                "color": np.asarray(params["color"]).reshape(shape + (3 * self.cfg.color_coeffs,))}
+                "color": np.asarray(params["color"]).reshape(shape + (self.cfg.color_floats,))}
 
     def from_numpy(self, arrays) -> dict:
         return {k: Float(np.asarray(arrays[k], np.float32).ravel()) for k in ("density", "color")}
@@ -309,13 +331,13 @@ class GridField(LatticeField):
         return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
 
     def raw_color(self, params, corners, active=True) -> list:
-        return interpolate(params["color"], 3 * self.cfg.color_coeffs, corners, active)
+        return interpolate(params["color"], self.cfg.color_floats, corners, active)
 
     def resize(self, params, res: int) -> dict:
         """Resample the colour to ``lattice(res)`` and the density to ``density_lattice(res)`` (coarse to fine)."""
         if res == self.resolution_of(params):
             return params
-        cfg, C = self.cfg, 3 * self.cfg.color_coeffs
+        cfg, C = self.cfg, self.cfg.color_floats
         with dr.suspend_grad():
             dens = resample(dr.detach(params["density"]), 1, cfg.extent, self.density_shape_of(params),
                             cfg.density_lattice(res))
@@ -336,7 +358,7 @@ class GridField(LatticeField):
             return None
         total = Float(0.0)
         for name, weight, C, shape in (("density", cfg.tv_weight, 1, self.density_shape_of(params)),
-                                       ("color", cfg.tv_color_weight, 3 * cfg.color_coeffs, self.shape_of(params))):
+                                       ("color", cfg.tv_color_weight, cfg.color_floats, self.shape_of(params))):
             if weight <= 0:
                 continue
             step = strides(shape)

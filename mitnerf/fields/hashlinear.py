@@ -68,6 +68,9 @@ class HashLinearConfig(GridSettings):
             raise ConfigError(f"resolutions needs 1 to 32 levels of whole numbers up to {top}, e.g. --set "
                               "resolutions=[65,129,257]")
         self.resolutions = tuple(int(r) for r in self.resolutions)
+        if self.view_color != "rgb":
+            raise ConfigError(f"--set view_color={self.view_color}: grey harmonics are the dense grid's; use "
+                              "--set view_color=rgb with this field, or the field grid")
         if list(self.resolutions) != sorted(set(self.resolutions)):
             raise ConfigError(f"resolutions must increase from level to level, got {list(self.resolutions)}")
         super().settle()

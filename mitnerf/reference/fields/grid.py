@@ -37,8 +37,12 @@ def corner_weights(x: torch.Tensor, lo: list, hi: list, shape: list):
     return corners, ((x >= low) & (x <= high)).all(dim=-1)
 
 
-def harmonic_rgb(raw: torch.Tensor, d: torch.Tensor, degree: int) -> torch.Tensor:
-    """``raw [n, 3, K]`` colour coefficients at unit directions ``d [n, D]`` -> RGB ``[n, 3]``."""
+def harmonic_rgb(raw: torch.Tensor, d: torch.Tensor, degree: int, grey: bool = False) -> torch.Tensor:
+    """``raw [n, 3, K]`` colour coefficients at unit directions ``d [n, D]`` -> RGB ``[n, 3]``; ``grey``: ``raw
+    [n, 3 + K - 1]``, each channel's degree-0 term, then the harmonics above it that all three share."""
+    if grey:
+        basis = torch.stack(view_basis(list(d.unbind(1)), degree), 1)    # [n, K]
+        return torch.sigmoid(raw[:, :3] + (raw[:, 3:] * basis[:, 1:]).sum(1, keepdim=True))
     if raw.shape[-1] > 1:
         basis = torch.stack(view_basis(list(d.unbind(1)), degree), 1)    # [n, K]
         raw = raw * basis[:, None, :]
@@ -55,7 +59,7 @@ class GridField(TwinField):
         super().__init__(cfg)
         res = cfg.initial_resolution
         self.density_grid = nn.Parameter(torch.zeros(int(np.prod(cfg.density_lattice(res))), 1))
-        self.color_grid = nn.Parameter(torch.zeros(int(np.prod(cfg.lattice(res))), 3 * cfg.color_coeffs))
+        self.color_grid = nn.Parameter(torch.zeros(int(np.prod(cfg.lattice(res))), cfg.color_floats))
 
     @property
     def res(self) -> int:
@@ -74,7 +78,7 @@ class GridField(TwinField):
 
     def load_numpy(self, arrays) -> None:
         d = torch.as_tensor(np.asarray(arrays["density"], np.float32).reshape(-1, 1))
-        c = torch.as_tensor(np.asarray(arrays["color"], np.float32).reshape(-1, 3 * self.cfg.color_coeffs))
+        c = torch.as_tensor(np.asarray(arrays["color"], np.float32).reshape(-1, self.cfg.color_floats))
         self.density_grid, self.color_grid = nn.Parameter(d), nn.Parameter(c)
 
     def to_numpy(self) -> dict:
@@ -99,8 +103,9 @@ class GridField(TwinField):
 
     def query(self, x, d):
         corners, _ = corner_weights(x, *self.cfg.extent, self.shape)
-        raw = interpolate(self.color_grid, corners).reshape(-1, 3, self.cfg.color_coeffs)
-        return self.density(x), harmonic_rgb(raw, d, self.cfg.sh_degree)
+        cfg, raw = self.cfg, interpolate(self.color_grid, corners)
+        raw = raw if cfg.grey else raw.reshape(-1, 3, cfg.color_coeffs)
+        return self.density(x), harmonic_rgb(raw, d, cfg.sh_degree, cfg.grey)
 
     def regularizer(self, seed: int):
         cfg = self.cfg
