@@ -6,7 +6,7 @@ import torch
 from drjit.auto.ad import Float
 
 from mitnerf.fields.encoding import angle_harmonics, encoded_size, positional_encoding
-from mitnerf.fields.grid import view_basis
+from mitnerf.fields.harmonics import view_basis
 from mitnerf.fields.mlp import NeRFConfig, NeRFField, init_weights
 from mitnerf.reference.fields.mlp import NeRFField as TorchField
 

@@ -131,8 +131,8 @@ def test_grey_harmonics_add_one_shared_term_to_each_channel_in_both_engines():
     band-1 weights (0.5, 0, -1). Towards d = (0.6, 0, 0.8) the shared term is 0.5 * 0.6 - 1 * 0.8 = -0.5, so the
     colour is sigmoid((-0.4, -0.7, -0.2)) = (0.4013, 0.3318, 0.4502)."""
     torch = pytest.importorskip("torch")
-    from mitnerf.fields.grid import harmonic_rgb
-    from mitnerf.reference.fields.grid import harmonic_rgb as twin_rgb
+    from mitnerf.fields.harmonics import harmonic_rgb
+    from mitnerf.reference.fields.harmonics import harmonic_rgb as twin_rgb
 
     raw, d = [0.1, -0.2, 0.3, 0.5, 0.0, -1.0], [0.6, 0.0, 0.8]
     got = harmonic_rgb([Float(v) for v in raw], [Float(v) for v in d], 4, 1, grey=True)

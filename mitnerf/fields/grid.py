@@ -27,7 +27,8 @@ from drjit.auto.ad import ArrayXf, Float, UInt32
 from ..errors import CheckpointError, ConfigError
 from ..rng import hash_u32
 from ..settings import setting
-from .base import Field, FieldConfig, cell_corners, density_activation, sigmoid
+from .base import Field, FieldConfig, cell_corners, density_activation
+from .harmonics import harmonic_rgb
 
 
 MAX_SH_DEGREE = {2: 8, 3: 2}
@@ -172,8 +173,8 @@ class GridConfig(GridSettings):
         res = self.resolution_with(n_color // C) if n_color % C == 0 else None
         if res is None or int(np.prod(self.density_lattice(res))) != n_density:
             raise CheckpointError(f"a grid of {n_density} density and {n_color} colour values fits no lattice of this "
-                                  "box, cells, view dependence and density_refine; the weights were saved with another "
-                                  "configuration")
+                                  "box, cells, view dependence, view_color and density_refine; the weights were saved "
+                                  "with another configuration")
         return res
 
     def resolution_with(self, n: int) -> int:
@@ -239,37 +240,6 @@ def interpolate(grid: Float, channels: int, corners, active=True) -> list:
         for c in range(channels):
             out[c] = dr.fma(dr.gather(Float, grid, index * channels + c, active), weight, out[c])
     return out
-
-
-def view_basis(d: list, degree: int) -> list:
-    """Harmonics of a unit view direction up to ``degree``; works on Dr.Jit arrays and torch tensors alike.
-    2D ``d = (cos t, sin t)``: ``1, cos t, sin t, cos 2t, sin 2t, ...`` (any degree, by the angle-addition
-    formulas); 3D (degree 1 or 2): ``1, x, y, z, xy, yz, 3z^2 - 1, xz, x^2 - y^2``."""
-    out = [d[0] * 0 + 1, *d]
-    if len(d) == 2:
-        c, s = d
-        ck, sk = c, s
-        for _ in range(degree - 1):
-            ck, sk = ck * c - sk * s, sk * c + ck * s
-            out += [ck, sk]
-    elif degree >= 2:
-        x, y, z = d
-        out += [x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y]
-    return out
-
-
-def harmonic_rgb(raw: list, d: list, K: int, degree: int, grey: bool = False) -> list:
-    """RGB from raw colour coefficients at unit view directions ``d``: ``3 K`` (channel-major), the harmonics'
-    weighted sum per channel (none when ``K`` is 1); ``grey``: ``3 + K - 1``, each channel's own degree-0 term plus
-    one weighted sum of the other harmonics shared by all three. Then a sigmoid. Dr.Jit arrays."""
-    if grey:
-        basis = view_basis(list(d), degree)
-        shared = sum(raw[2 + k] * basis[k] for k in range(1, K))
-        raw = [raw[c] + shared for c in range(3)]
-    elif K > 1:
-        basis = view_basis(list(d), degree)
-        raw = [sum(raw[c * K + k] * basis[k] for k in range(K)) for c in range(3)]
-    return [sigmoid(r) for r in raw]
 
 
 class LatticeField(Field):

@@ -7,8 +7,9 @@ import torch
 from torch import nn
 
 from ...fields.base import cell_corners
-from ...fields.grid import TV_SALT, GridConfig, lattice_points, strides, view_basis
+from ...fields.grid import TV_SALT, GridConfig, lattice_points, strides
 from ...rng import batch_indices
+from .harmonics import harmonic_rgb
 from .mlp import TwinField, density_activation
 
 
@@ -35,18 +36,6 @@ def corner_weights(x: torch.Tensor, lo: list, hi: list, shape: list):
     corners = [(sum(k * s for s, k in zip(step, key)), w) for key, w in box_corners(x, lo, hi, shape)]
     low, high = x.new_tensor(lo), x.new_tensor(hi)
     return corners, ((x >= low) & (x <= high)).all(dim=-1)
-
-
-def harmonic_rgb(raw: torch.Tensor, d: torch.Tensor, degree: int, grey: bool = False) -> torch.Tensor:
-    """``raw [n, 3, K]`` colour coefficients at unit directions ``d [n, D]`` -> RGB ``[n, 3]``; ``grey``: ``raw
-    [n, 3 + K - 1]``, each channel's degree-0 term, then the harmonics above it that all three share."""
-    if grey:
-        basis = torch.stack(view_basis(list(d.unbind(1)), degree), 1)    # [n, K]
-        return torch.sigmoid(raw[:, :3] + (raw[:, 3:] * basis[:, 1:]).sum(1, keepdim=True))
-    if raw.shape[-1] > 1:
-        basis = torch.stack(view_basis(list(d.unbind(1)), degree), 1)    # [n, K]
-        raw = raw * basis[:, None, :]
-    return torch.sigmoid(raw.sum(-1))
 
 
 def interpolate(grid: torch.Tensor, corners) -> torch.Tensor:

@@ -8,7 +8,8 @@ from torch import nn
 
 from ...errors import CheckpointError
 from ...fields.hashlinear import HashLinearConfig, levels_of
-from .grid import harmonic_rgb, lattice_corners, tv_vertices
+from .grid import lattice_corners, tv_vertices
+from .harmonics import harmonic_rgb
 from .hashenc import vertex_entry
 from .mlp import TwinField, density_activation
 
