@@ -7,7 +7,7 @@ Values live on a lattice of vertices over a box: by default ``R^D`` vertices spa
 interpolates raw values (bi/trilinear) and *then* applies the activations, so a surface can be sharper than a
 cell, as in Plenoxels and DVGO. Outside the box the density is 0. Every operation is a gather, so
 the field is traceable (it runs inside the fused march); where the integral does not use a sample's colour
-(``keep``), only the density is read (one channel per corner instead of 1 + 3 x the colour's coefficients), so
+(``keep``), only the density is read (one channel per corner instead of 1 + the colour's floats), so
 empty space and the inside of a surface cost that much less in the primal and the adjoint
 (``benchmarks/grid_step.py``). With ``density_refine`` k the density has a lattice of its own, k times finer than
 the colour's over the same box, so edges and thin parts get finer cells for one float a vertex (grid-3d does so
