@@ -20,11 +20,14 @@ wall time. The default recipe takes the lego's density on a lattice twice as fin
 density_refine=1``, one lattice for both in the same floats (more colour vertices): what that choice is measured
 against. Part ``grey`` (``lego/grey/3600``) runs part ``3600``'s command with ``--set view_color=grey``: the same
 lattice with one set of view harmonics shared by the three channels (``GridSettings.view_color``), half the
-colour's floats, so more steps in the hour and less memory.
+colour's floats, so more steps in the hour and less memory. The default draws most of a batch's rays where the
+field's last errors were (``TrainConfig.mining``, ``Sizing.mining``); part ``uniform`` (``lego/uniform/600``) runs
+part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly, as before mining. Run it beside part
+``600`` in one session: the pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey]
+    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -42,16 +45,17 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey")
+PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
 """Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
-VARIANTS = {"single": ("600", "density_refine=1"), "grey": ("3600", "view_color=grey")}
+VARIANTS = {"single": ("600", "density_refine=1"), "grey": ("3600", "view_color=grey"), "uniform": ("600", "mining=0")}
 """Parts that run a budget's plain command with one ``--set``: ``(seconds, setting)``; ``single``: one lattice for
-density and colour, against part ``600``'s default; ``grey``: grey view harmonics, against part ``3600``'s."""
+density and colour, against part ``600``'s default; ``grey``: grey view harmonics, against part ``3600``'s;
+``uniform``: every batch drawn uniformly (twice the rays), against part ``600``'s mined batches."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),

@@ -267,8 +267,8 @@ def test_the_total_variation_weakens_where_the_views_have_more_pixels_than_the_l
     """The box of the test above: 161 x 321 x 81 = 4186161 vertices. 3 views of 2 x 2 pixels keep grid-3d's weights
     (tv 1e-5, colour 3e-4); 100 views of 160 x 160 (2560000 pixels: 1.6352 vertices a pixel, over 1) keep them too;
     400 views of 160 x 160 (10240000 pixels: 0.408805 a pixel, under tv_reference 1) scale both by 0.408805 (tv
-    4.08805e-6, colour 1.226415e-4) and take twice the batch (16384 rays); a weight or a batch set on the recipe
-    stays."""
+    4.08805e-6, colour 1.226415e-4) and mine their batch (mining 0.8, 8192 rays), or without mining take twice the
+    batch (16384 rays); a weight or a batch set on the recipe stays."""
     def box_views(n: int, size: int) -> Dataset:
         poses = np.stack([np.eye(4)] * n)
         poses[:, 2, 3] = 4.0
@@ -281,13 +281,16 @@ def test_the_total_variation_weakens_where_the_views_have_more_pixels_than_the_l
     def weights(ds, **settings):
         recipe = get_recipe("grid-3d").override(**settings).sized(ds)
         args = recipe.model.field_args
-        return args["tv_weight"], args["tv_color_weight"], recipe.train.batch_rays
+        return args["tv_weight"], args["tv_color_weight"], recipe.train.batch_rays, recipe.train.mining
 
-    np.testing.assert_allclose(weights(box_views(3, 2)), (1e-5, 3e-4, 8192))
-    np.testing.assert_allclose(weights(box_views(100, 160)), (1e-5, 3e-4, 8192))
+    np.testing.assert_allclose(weights(box_views(3, 2)), (1e-5, 3e-4, 8192, 0))
+    np.testing.assert_allclose(weights(box_views(100, 160)), (1e-5, 3e-4, 8192, 0))
     many = box_views(400, 160)
-    np.testing.assert_allclose(weights(many), (4.08805e-6, 1.226415e-4, 16384), rtol=1e-5)
-    np.testing.assert_allclose(weights(many, tv_weight=2e-5, batch_rays=4096), (2e-5, 1.226415e-4, 4096), rtol=1e-5)
+    np.testing.assert_allclose(weights(many), (4.08805e-6, 1.226415e-4, 8192, 0.8), rtol=1e-5)
+    np.testing.assert_allclose(weights(many, mining=0), (4.08805e-6, 1.226415e-4, 16384, 0), rtol=1e-5)
+    np.testing.assert_allclose(weights(many, mining=0.5), (4.08805e-6, 1.226415e-4, 8192, 0.5), rtol=1e-5)
+    np.testing.assert_allclose(weights(many, tv_weight=2e-5, batch_rays=4096), (2e-5, 1.226415e-4, 4096, 0.8),
+                               rtol=1e-5)
 
 
 def test_a_setting_at_the_recipes_own_value_renames_it_only_where_it_fixes_a_size():

@@ -11,6 +11,7 @@ from ..data.rays import RaySet
 from ..geometry.mesh import LEVEL
 from ..rng import batch_indices, uniform_np
 from .config import ModelConfig, TrainConfig
+from .mining import ErrorMap
 
 
 def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
@@ -22,15 +23,16 @@ def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
     return fields
 
 
-def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, free, behind, regularizer):
+def training_loss(cfg: TrainConfig, n_final: int, ops, outs: dict, target, depth, hit, free, behind, regularizer,
+                  weight=None):
     """The final pass's MSE, the fields' regularisers, and the coarse, depth, free-space, solid, distortion and
     opacity terms with their ``cfg`` weights; ``ops``: the engine's losses (:mod:`mitnerf.train.losses` or its
     twin); ``behind``: the density at :func:`behind_depth`'s points and which rays have a solid extent (None when
-    the solid loss is off)."""
+    the solid loss is off); ``weight``: the rays' photometric weights (mined batches, :mod:`.mining`; None: 1)."""
     final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
-    loss = ops.mse(final.rgb, target)
+    loss = ops.mse(final.rgb, target, weight)
     if outs.get("fine") is not None and cfg.coarse_weight > 0:
-        loss = loss + cfg.coarse_weight * ops.mse(outs["coarse"].rgb, target)
+        loss = loss + cfg.coarse_weight * ops.mse(outs["coarse"].rgb, target, weight)
     if regularizer is not None:
         loss = loss + regularizer
     t, delta = outs["samples"] if cfg.needs_weights else (None, None)
@@ -90,6 +92,12 @@ class Backend(ABC):
         self.model_cfg, self.cfg = model_cfg, train_cfg
         self.dim, self.bound, self.near, self.far = dim, float(bound), float(near), float(far)
         self.occupancy, self.rays, self.n_pixels = None, None, 0
+        self.errors: ErrorMap | None = None
+        """The training pixels' last errors where batches are mined (``cfg.mining``, :mod:`.mining`)."""
+        self.drawn: tuple = (None, None)
+        """The last batch's flat pixel indices ``[B]`` and loss weights (``[B]``, or None where not mined)."""
+        self._in_flight: list = []
+        """``(pixel indices, per-ray error handle)`` of the mined steps not yet recorded in :attr:`errors`."""
         self.step_reached: int | None = None
         """The last training step begun (None: none yet, or unknown, as after loading a checkpoint): a field's
         step-dependent schedule renders as at this step (:meth:`~mitnerf.render.pipeline.Model.at_step`)."""
@@ -98,13 +106,39 @@ class Backend(ABC):
         """Hold the training rays (:class:`~mitnerf.data.rays.TrainingRays`, or a :class:`RaySet` of every one):
         :meth:`step` draws its batch from them (:meth:`batch`)."""
         self.rays, self.n_pixels = rays, len(rays)
+        if self.cfg.mining > 0:
+            shape = getattr(rays, "shape", (1, 1, len(rays)))
+            self.errors = ErrorMap(shape, self.cfg.mining_tile, self.cfg.mining, self.cfg.mining_alpha)
+            self._in_flight = []
 
     def batch(self, seed: int) -> RaySet:
-        """The rays of the step with batch seed ``seed`` (:func:`mitnerf.rng.batch_indices`); with an occupancy grid,
-        which gives each ray as many samples as it crosses occupied space, those known to be empty all along come
-        first, so that rays marched side by side (a SIMD packet) mostly end their march together."""
-        b = self.rays.batch(batch_indices(seed, self.cfg.batch_rays, self.n_pixels), seed)
-        return b if self.occupancy is None else b.batch(np.argsort(~np.isinf(b.free), kind="stable"))
+        """The rays of the step with batch seed ``seed`` (:func:`mitnerf.rng.batch_indices`, or mined from the
+        errors, :mod:`.mining`; :attr:`drawn`); with an occupancy grid, which gives each ray as many samples as it
+        crosses occupied space, those known to be empty all along come first, so that rays marched side by side (a
+        SIMD packet) mostly end their march together."""
+        if self.errors is None:
+            index, weight = batch_indices(seed, self.cfg.batch_rays, self.n_pixels), None
+        else:
+            while len(self._in_flight) > 1:         # every step but the last is done: the engine synced for it
+                done, error = self._in_flight.pop(0)
+                self.errors.record(done, self._errors_of(error))
+            index, weight = self.errors.draw(seed, self.cfg.batch_rays)
+        b = self.rays.batch(index, seed)
+        if self.occupancy is not None:
+            order = np.argsort(~np.isinf(b.free), kind="stable")
+            b, index, weight = b.batch(order), index[order], None if weight is None else weight[order]
+        self.drawn = (index, weight)
+        return b
+
+    def mined(self, error) -> None:
+        """Note the per-ray error of the step just launched on :attr:`drawn` (a handle of the engine's; nothing
+        where batches are not mined): a later :meth:`batch` records it, once the engine is past that step."""
+        if self.errors is not None:
+            self._in_flight.append((self.drawn[0], error))
+
+    def _errors_of(self, error) -> np.ndarray:
+        """The engine's per-ray error handle -> numpy ``[B]``."""
+        return np.asarray(error)
 
     @abstractmethod
     def step(self, index: int, seed: int, lr: float):

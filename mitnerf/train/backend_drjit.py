@@ -70,7 +70,9 @@ class DrJitBackend(Backend):
         model, cfg, n_final = self.model, self.cfg, self.n_final
         near, far, B = self.near, self.far, cfg.batch_rays
         use_weights, jitter, D = cfg.needs_weights, self.model_cfg.render.pixel_jitter, self.dim
-        widths = [D, D, 3, 3, 1, 1, 1, 2 * D, 1]                             # of STEP_INPUTS
+        mining = cfg.mining > 0
+        names = STEP_INPUTS + (("weight",) if mining else ())      # a mined batch's loss weights last
+        widths = [D, D, 3, 3, 1, 1, 1, 2 * D, 1, 1][:len(names)]
 
         local = not all(f.scattered for f in model.fields.values())     # see Field.scattered
 
@@ -81,7 +83,7 @@ class DrJitBackend(Backend):
         def traced(opt, inputs, seed, lr, index, occupancy):
             set_learning_rate(opt, lr)
             rows, data = dr.arange(UInt32, B), {}
-            for k, start, width in zip(STEP_INPUTS, np.cumsum([0, *widths]).tolist(), widths):  # the batch's columns
+            for k, start, width in zip(names, np.cumsum([0, *widths]).tolist(), widths):  # the batch's columns
                 data[k] = [dr.gather(Float, inputs, rows + (start + c) * B) for c in range(width)]
             params = model.at_step({k: opt[k] for k in opt.keys()}, index)
             o = data["origins"]
@@ -105,11 +107,15 @@ class DrJitBackend(Backend):
                           dr.select(extent > 0, 1.0, 0.0))
             outs = model.render(params, o, d, near, far, seed, training=True, weights=use_weights,
                                 occupancy=occupancy, background=data["background"])
+            weight = data["weight"][0] if mining else None
             loss = training_loss(cfg, n_final, losses, outs, data["target"], depth, data["hit"][0],
-                                 data["free"][0], behind, reg)
+                                 data["free"][0], behind, reg, weight)
             dr.backward(loss)
             opt.step()
-            return loss
+            if not mining:
+                return loss
+            final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
+            return loss, losses.rms_error(final.rgb, data["target"])
 
         return freeze(step) if cfg.freeze and all(f.freezable for f in model.fields.values()) else step
 
@@ -120,15 +126,20 @@ class DrJitBackend(Backend):
             self._frozen = self._new_step()         # new shapes: a new recording (see _drjit_compat.freeze)
         self.update_occupancy(index, seed)
         occ, b = self.occupancy, self.batch(seed)
-        batch = np.concatenate([getattr(b, k).reshape(len(b), -1).T.ravel() for k in STEP_INPUTS])
+        columns = [getattr(b, k).reshape(len(b), -1).T.ravel() for k in STEP_INPUTS]
+        batch = np.concatenate(columns if self.errors is None else columns + [self.drawn[1]])
         if self._inputs is None or dr.width(self._inputs) != len(batch):
             self._inputs = dr.zeros(Float, len(batch))
         dr.eval(self._inputs)
         dr.sync_thread()                # the steps in flight have read the last batch
         self._inputs.numpy()[:] = batch
         self.step_reached = index
-        return self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
-                            dr.opaque(Float, index), occ.lookup if occ is not None else None)
+        out = self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
+                           dr.opaque(Float, index), occ.lookup if occ is not None else None)
+        if isinstance(out, tuple):                  # mined: the rays' errors for the map (Backend.mined)
+            out, error = out
+            self.mined(error)
+        return out
 
     def release(self) -> None:
         dr.sync_thread()

@@ -72,8 +72,11 @@ class TorchBackend(Backend):
             u = uniform_np(seed ^ SOLID_SALT, np.arange(n, dtype=np.uint32), np.zeros(n, np.uint32))
             t = behind_depth(torch.from_numpy(u), b["depth"], b["solid"], self.cfg.solid_start)
             behind = (self.model.density(b["origins"] + t[:, None] * b["directions"]), (b["solid"] > 0).float())
+        weight = self.drawn[1]
         loss = training_loss(self.cfg, self.n_final, losses, outs, b["target"], b["depth"], b["hit"], b["free"],
-                             behind, self.model.regularizer(seed))
+                             behind, self.model.regularizer(seed), None if weight is None else torch.from_numpy(weight))
+        final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
+        self.mined(losses.rms_error(final.rgb, b["target"]).numpy() if self.errors is not None else None)
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
         bad = next((n for n, p in self.model.named_parameters()

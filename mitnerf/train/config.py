@@ -49,6 +49,14 @@ class TrainConfig:
     """Stop after this many seconds of training (the schedule then follows the clock)."""
     batch_rays: int = setting(1024, lo=1, hi=1 << 22, flag="--batch", unit="rays")
     """Rays per step, drawn at random from all training pixels."""
+    mining: float = setting(0.0, lo=0, hi=0.99)
+    """Share of a batch's draw given to the pixels' last errors (soft mining, :mod:`mitnerf.train.mining`); the
+    rest draws uniformly. 0: every pixel alike."""
+    mining_alpha: float = setting(0.6, lo=0, hi=1)
+    """Exponent of a mined ray's loss weight ``(uniform chance / its chance)^alpha``: 1 keeps the uniform loss's
+    expectation (importance sampling), 0 takes the drawn rays as they come (hard mining)."""
+    mining_tile: int = setting(4, lo=1, hi=4096, unit="pixels")
+    """Side of the square of a view's pixels that shares one remembered error (the map holds one a tile)."""
     lr: float = setting(5e-3, lo=0, above=True, hi=10, flag="--lr")
     """Peak learning rate (Adam)."""
     lr_final: float = setting(5e-4, lo=0, above=True, hi=10, flag="--lr-final")

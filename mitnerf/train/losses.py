@@ -69,8 +69,15 @@ def solid_behind(sigma: Float, hit: Float, level: float) -> Float:
     return dr.sum(short * short * hit) / dr.maximum(dr.sum(hit), 1.0)
 
 
-def mse(rgb: list, target: list) -> Float:
-    return sum(dr.mean(dr.square(c - t)) for c, t in zip(rgb, target)) * (1.0 / 3.0)
+def mse(rgb: list, target: list, weight: Float | None = None) -> Float:
+    """Mean over rays and channels of the squared residual, each ray's times its ``weight`` ``[n_rays]`` (None: 1)."""
+    sq = sum(dr.square(c - t) for c, t in zip(rgb, target))
+    return dr.mean(sq if weight is None else sq * weight) * (1.0 / 3.0)
+
+
+def rms_error(rgb: list, target: list) -> Float:
+    """``[n_rays]``: each ray's root mean square colour residual, without gradients (:mod:`.mining`'s error)."""
+    return dr.sqrt(sum(dr.square(dr.detach(c) - t) for c, t in zip(rgb, target)) * (1.0 / 3.0))
 
 
 def depth_kl(weights: Float, t: Float, delta: Float, depth: Float, hit: Float, N: int, sigma: float) -> Float:

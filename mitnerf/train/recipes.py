@@ -119,15 +119,20 @@ class Recipe:
             shape = FIELDS["grid"][0](dim=dataset.dim, box=box, cells=cells, bound=dataset.bound).lattice(R)
             per_pixel = float(np.prod(shape)) / (len(cams) * cams.width * cams.height)
             sizes.update({k: args[k] * min(1.0, per_pixel / s.tv_reference) for k in ("tv_weight", "tv_color_weight")
-                          if k in args}, batch_rays=out.train.batch_rays * (2 if per_pixel < s.tv_reference else 1))
+                          if k in args})
+            mining = out.train.mining if "mining" in s.fixed else s.mining
+            if per_pixel < s.tv_reference and mining:       # more pixels than vertices: mined rays,
+                sizes["mining"] = mining
+            elif per_pixel < s.tv_reference:                # or twice the rays
+                sizes["batch_rays"] = 2 * out.train.batch_rays
         for key in self.sized_keys():
             if key not in s.fixed and key in sizes and not (ndc and key.startswith("occupancy.")):
                 if key.startswith("occupancy."):
                     setattr(r.occupancy, key.split(".", 1)[1], sizes[key])
                 elif key == "n_coarse":
                     r.n_coarse = sizes[key]
-                elif key == "batch_rays":
-                    out.train.batch_rays = sizes[key]
+                elif key in ("batch_rays", "mining"):
+                    setattr(out.train, key, sizes[key])
                 else:
                     args[key] = sizes[key]
         return out
@@ -220,6 +225,7 @@ class Recipe:
         args = ", ".join(f"{k}={v}" for k, v in args.items())
         r, t = self.model.render, self.train
         budget = f"{t.time_budget:g} s" if t.time_budget else f"{t.iters} steps"
+        mined = (f" mined {t.mining:g} (alpha {t.mining_alpha:g}, tiles of {t.mining_tile})" if t.mining else "")
         occ = (f", occupancy grid {r.occupancy.resolution}^{self.dim} of {r.occupancy.march_bins} bins a ray"
                if r.occupancy.enabled else "")
         fine = f" + {r.n_fine} fine" if r.n_fine else ""
@@ -232,7 +238,7 @@ class Recipe:
         sized = (f" (sizes from the data: {s.vertices_per_pixel:g} vertex per pixel, up to {s.max_resolution})"
                  if s is not None else "")
         return (f"{self.name}: {self.model.field} ({args}){sized}; {r.n_coarse}{fine} samples{occ}; "
-                f"{budget}, batch {t.batch_rays}, lr {t.lr:g} -> {t.lr_final:g}{losses}")
+                f"{budget}, batch {t.batch_rays}{mined}, lr {t.lr:g} -> {t.lr_final:g}{losses}")
 
 
 PURPOSE = {
@@ -290,10 +296,11 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "as the colour's; a high learning rate (a budget of seconds buys few steps); a density TV ten times and a "
        "colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry detail, texture and highlights that "
        "2D's weights blur away), both scaled down where the lattice has fewer vertices than the training views have "
-       "pixels (the lego's 100 views of 400 x 400: 0.17 colour vertices a pixel), where a step also takes twice the "
-       "rays; renders with twice the samples of training on the same occupancy bins (benchmarks/lego.py)",
+       "pixels (the lego's 100 views of 400 x 400: 0.17 colour vertices a pixel), where a step also draws most of "
+       "its rays where the field's last errors were (mining 0.8) rather than uniformly; renders with twice the "
+       "samples of training on the same occupancy bins (benchmarks/lego.py)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0,
-              density_refine=2)),
+              density_refine=2, mining=0.8)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
                                               tv_color_weight=3e-4),

@@ -11,7 +11,7 @@ from ..fields.grid import most_vertices as grid_most_vertices
 SIZES = {"grid": ("resolution", "initial_resolution", "box", "cells", "density_refine"), "hashlinear": ("resolutions",),
          "render": ("n_coarse", "occupancy.march_bins", "occupancy.resolution")}
 """The settings :meth:`~.recipes.Recipe.sized` derives from the data, per field family and for the rendering."""
-TV_SIZES = ("tv_weight", "tv_color_weight", "batch_rays")
+TV_SIZES = ("tv_weight", "tv_color_weight", "batch_rays", "mining")
 """What it derives too for a dense grid whose sizing has a :attr:`Sizing.tv_reference`
 (:meth:`~.recipes.Recipe.sized_keys`)."""
 
@@ -57,7 +57,11 @@ class Sizing:
     tv_reference: float | None = None
     """A dense grid's lattice vertices per training pixel at which the recipe's total-variation weights hold; data
     with fewer (more pixels to pin each vertex) scales both weights down in proportion, as a prior's weight falls
-    with the observations against it, and a step takes twice the recipe's rays (``benchmarks/lego.py``). None: the
-    recipe's weights and batch whatever the data."""
+    with the observations against it, and a step takes twice the recipe's rays, or mines them (:attr:`mining`;
+    ``benchmarks/lego.py``). None: the recipe's weights and batch whatever the data."""
+    mining: float = 0.0
+    """Where the data has more pixels than the lattice vertices (:attr:`tv_reference`), the share of each batch
+    drawn from the pixels' errors (``TrainConfig.mining``) in place of twice the recipe's rays: as many steps as the
+    recipe's batch takes, their rays where the field is still wrong. 0: twice the rays, drawn uniformly."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`~.recipes.Recipe.override`), which the data leaves alone."""

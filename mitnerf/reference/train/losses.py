@@ -22,8 +22,15 @@ def opacity_entropy(opacity: torch.Tensor) -> torch.Tensor:
     return (-(a * torch.log(a) + (1.0 - a) * torch.log(1.0 - a))).mean()
 
 
-def mse(rgb: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    return torch.mean((rgb - target) ** 2)
+def mse(rgb: torch.Tensor, target: torch.Tensor, weight: torch.Tensor | None = None) -> torch.Tensor:
+    """``rgb, target [n_rays, 3]``, ``weight [n_rays]`` (None: 1)."""
+    sq = (rgb - target) ** 2
+    return torch.mean(sq if weight is None else sq * weight[:, None])
+
+
+def rms_error(rgb: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """``[n_rays]``, without gradients."""
+    return torch.sqrt(torch.mean((rgb.detach() - target) ** 2, 1))
 
 
 def depth_kl(weights, t, delta, depth, hit, N: int, sigma: float) -> torch.Tensor:
