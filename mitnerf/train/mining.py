@@ -1,4 +1,5 @@
-r"""Error-driven ray sampling (soft mining, Kheradmand et al., CVPR 2024), engine-agnostic numpy.
+r"""Error-driven ray sampling, after soft mining (Kheradmand et al., CVPR 2024), from a map of tiles' errors;
+engine-agnostic numpy.
 
 The training pixels are cut into tiles of ``tile x tile`` pixels of one view. Each tile remembers the error
 :math:`e_t` of the last ray drawn in it (the root mean square over the colour channels of the final pass's
@@ -13,8 +14,8 @@ the first draws sweep the tiles. A batch draws pixel *i*, in tile *t(i)*, with p
 
 A ray's loss is weighted by :math:`w_i = (1 / (N p_i))^\alpha`, the uniform draw's chance over its own, and the
 weights are divided by their mean over the batch: :math:`\alpha = 1` is importance sampling (the uniform loss's
-estimate, unbiased), :math:`\alpha = 0` hard mining (the drawn rays as they come); between them, the paper's soft
-mining. The uniform share bounds every weight, before the division, by :math:`(1 - s)^{-\alpha}`.
+estimate, unbiased), :math:`\alpha = 0` hard mining (the drawn rays as they come); between them, soft mining. The
+uniform share bounds every weight, before the division, by :math:`(1 - s)^{-\alpha}`.
 
 The map lives in the training process only: a resumed run starts it afresh (it refills within
 ``T / batch`` steps). ``benchmarks/lego.py`` measures the setting against uniform draws."""
