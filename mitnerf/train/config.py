@@ -48,7 +48,7 @@ class TrainConfig:
     time_budget: float | None = setting(None, lo=0, above=True, hi=10 ** 7, flag="--time-budget", unit="seconds")
     """Stop after this many seconds of training (the schedule then follows the clock)."""
     batch_rays: int = setting(1024, lo=1, hi=1 << 22, flag="--batch", unit="rays")
-    """Rays per step, drawn at random from all training pixels."""
+    """Rays per step, drawn at random from all training pixels (uniformly, or partly by their errors: ``mining``)."""
     mining: float = setting(0.0, lo=0, hi=0.99)
     """Share of a batch's draw given to the pixels' last errors (soft mining, :mod:`mitnerf.train.mining`); the
     rest draws uniformly. 0: every pixel alike."""

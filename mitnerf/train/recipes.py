@@ -61,14 +61,14 @@ class Recipe:
         :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
         occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
         an occupancy cell per two lattice spacings (up to 128 per axis); a dense grid's total-variation weights
-        scaled by the lattice's vertices per training pixel, and its batch (:attr:`Sizing.tv_reference`). In a
-        forward-facing scene (NDC) a dense grid's cells are in the proportions of the training images' width, height
-        and :attr:`Sizing.depth_cells` times the width; the fullest axis takes :attr:`Sizing.vertices_per_pixel`
-        vertices a pixel of the images' longer side, and the occupancy grid keeps the recipe's sizes. A grid whose
-        density is refined (``density_refine`` k) keeps the cap's floats on fewer vertices
-        (:attr:`GridConfig.refined_share`), with :attr:`Sizing.samples_per_vertex` bins a density spacing; the
-        recipe's :attr:`Sizing.density_refine` is that k where the pixels ask for it. A size set on the recipe
-        stays."""
+        scaled by the lattice's vertices per training pixel, and its batch doubled or mined
+        (:attr:`Sizing.tv_reference`, :attr:`Sizing.mining`). In a forward-facing scene (NDC) a dense grid's cells
+        are in the proportions of the training images' width, height and :attr:`Sizing.depth_cells` times the width;
+        the fullest axis takes :attr:`Sizing.vertices_per_pixel` vertices a pixel of the images' longer side, and the
+        occupancy grid keeps the recipe's sizes. A grid whose density is refined (``density_refine`` k) keeps the
+        cap's floats on fewer vertices (:attr:`GridConfig.refined_share`), with :attr:`Sizing.samples_per_vertex`
+        bins a density spacing; the recipe's :attr:`Sizing.density_refine` is that k where the pixels ask for it. A
+        size set on the recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
