@@ -3,6 +3,7 @@ the importance weights' expectation, the weighted loss in both engines, and a mi
 
 import drjit as dr
 import numpy as np
+import pytest
 import torch
 from conftest import small
 from drjit.auto.ad import Float
@@ -107,3 +108,28 @@ def test_a_mined_batch_is_weighted_and_its_errors_fill_the_map(bunny_small):
         seen = be.errors.error < UNSEEN
         assert seen.sum() >= 0.5 * len(be.errors)            # 10 recorded batches of 256 rays
     np.testing.assert_array_equal(bes[0].drawn[0], bes[1].drawn[0])
+
+
+def test_a_checkpoint_keeps_the_error_map_so_a_resumed_run_draws_alike(bunny_small, tmp_path):
+    """A mined fit's checkpoint holds its map and the errors of the steps not yet recorded: loaded into a fresh
+    engine, the next batch is the one the run itself draws; a map of other data is refused in one line."""
+    from mitnerf.errors import CheckpointError
+    from mitnerf.train.checkpoint import load_checkpoint, save_checkpoint
+    from mitnerf.train.fit import fit
+
+    recipe = small("grid-2d", mining=0.8, mining_tile=2, iters=12)
+    run = fit(bunny_small, recipe, "drjit")
+    save_checkpoint(run, tmp_path / "ckpt")
+    loaded, resume = load_checkpoint(tmp_path / "ckpt")
+    assert set(resume["mining"]) == {"error", "flight0.index", "flight0.error", "flight1.index", "flight1.error"}
+    be = loaded.backend
+    be.set_data(bunny_small["train"].rays((0, 0, 0), **recipe.train.ray_args()))
+    be.load_sampling_state(resume["mining"])
+    seed = step_seed(recipe.train.seed, 12)
+    run.backend.batch(seed)
+    be.batch(seed)
+    np.testing.assert_array_equal(be.drawn[0], run.backend.drawn[0])
+    np.testing.assert_array_equal(be.drawn[1], run.backend.drawn[1])
+    np.testing.assert_array_equal(be.errors.error, run.backend.errors.error)
+    with pytest.raises(CheckpointError, match=r"^ckpt: its error map does not fit .*run's own data$"):
+        be.load_sampling_state({"error": np.zeros(3, np.float32)}, "ckpt")

@@ -8,10 +8,11 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from ..data.rays import RaySet
+from ..errors import CheckpointError
 from ..geometry.mesh import LEVEL
 from ..rng import batch_indices, uniform_np
 from .config import ModelConfig, TrainConfig
-from .mining import ErrorMap
+from .mining import UNSEEN, ErrorMap
 
 
 def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
@@ -137,8 +138,34 @@ class Backend(ABC):
             self._in_flight.append((self.drawn[0], error))
 
     def _errors_of(self, error) -> np.ndarray:
-        """The engine's per-ray error handle -> numpy ``[B]``."""
+        """The engine's per-ray error handle (or numpy, read from a checkpoint) -> numpy ``[B]``."""
         return np.asarray(error)
+
+    def sampling_state(self) -> dict[str, np.ndarray]:
+        """The error map and the errors of the steps not yet recorded in it (mined batches; else nothing), for a
+        checkpoint: a resumed run draws the batches the run would have drawn. float32: the errors' own precision."""
+        if self.errors is None:
+            return {}
+        out = {"error": self.errors.error.astype(np.float32)}
+        for i, (index, error) in enumerate(self._in_flight):
+            out[f"flight{i}.index"] = np.asarray(index, np.int64)
+            error = np.nan_to_num(self._errors_of(error), nan=UNSEEN, posinf=UNSEEN)
+            out[f"flight{i}.error"] = error.astype(np.float32)
+        return out
+
+    def load_sampling_state(self, arrays: dict[str, np.ndarray], where: str = "the checkpoint") -> None:
+        """Restore what :meth:`sampling_state` returned (after :meth:`set_data`; nothing where batches are not
+        mined or ``arrays`` is empty: the map then starts afresh)."""
+        if self.errors is None or not arrays:
+            return
+        n = sum(k.endswith(".index") for k in arrays)
+        ok = arrays.get("error") is not None and arrays["error"].shape == self.errors.error.shape and all(
+            f"flight{i}.{k}" in arrays for i in range(n) for k in ("index", "error")) and len(arrays) == 1 + 2 * n
+        if not ok:
+            raise CheckpointError(f"{where}: its error map does not fit the training pixels of the data given "
+                                  "(another dataset, or an edited checkpoint): resume with the run's own data")
+        self.errors.error[:] = arrays["error"]
+        self._in_flight = [(arrays[f"flight{i}.index"], arrays[f"flight{i}.error"]) for i in range(n)]
 
     @abstractmethod
     def step(self, index: int, seed: int, lr: float):

@@ -4,7 +4,8 @@
                      "recipe", "bound", "near", "far", "dataset", "loop", "best", "metrics",
                      "arrays": {"<file>.npz": {"<name>": {"shape", "dtype", "sha256"}}}}
     weights.npz     the model (canonical names, both engines read it) and the occupancy grid
-    state.npz       Adam's moments (engine-specific names) and the best weights: for --resume
+    state.npz       Adam's moments (engine-specific names), the best weights and a mined run's error map: for
+                    --resume
     history.json    the loss and validation curves
     metrics.json    the evaluation (:func:`write_fit`), beside the figures: curves, test views, density
 
@@ -62,6 +63,7 @@ def save_checkpoint(run: Run, folder: str | Path, metrics: dict | None = None) -
     be = run.backend
     arrays = {"weights.npz": _write_npz(folder / "weights.npz", be.get_weights())}
     state = {f"optimizer.{k}": v for k, v in be.optimizer_state().items()}
+    state.update({f"mining.{k}": v for k, v in be.sampling_state().items()})
     if run.snapshot is not None:
         state.update({f"best.{k}": v for k, v in run.snapshot.items()})
     arrays["state.npz"] = _write_npz(folder / "state.npz", state)
@@ -213,10 +215,11 @@ def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str 
                               f"have ({', '.join(unknown[:3])}); the checkpoint was edited: refit it")
     best = {k[5:]: v for k, v in state.items() if k.startswith("best.")}
     optim = {k[10:]: v for k, v in state.items() if k.startswith("optimizer.")}
-    other = sorted(k for k in state if not k.startswith(("best.", "optimizer.")))
+    mining = {k[7:]: v for k, v in state.items() if k.startswith("mining.")}
+    other = sorted(k for k in state if not k.startswith(("best.", "optimizer.", "mining.")))
     if other:
-        raise CheckpointError(f"{path}: state.npz holds arrays that are neither best weights nor optimizer state "
-                              f"({', '.join(other[:3])}); the checkpoint was edited: refit it")
+        raise CheckpointError(f"{path}: state.npz holds arrays that are neither best weights, optimizer state nor "
+                              f"the error map ({', '.join(other[:3])}); the checkpoint was edited: refit it")
     if best and (set(best) != set(weights) or any(np.shape(best[k]) != shapes[k] for k in weights)):
         raise CheckpointError(f"{path}: state.npz holds best weights that do not fit the model its manifest "
                               "describes; the checkpoint was edited: refit it")
@@ -235,5 +238,5 @@ def load_checkpoint(path: str | Path, backend: str | None = None, *, field: str 
     be.step_reached = m["loop"]["step_reached"]         # a step-dependent schedule renders as it was trained
     run = Run(be, recipe, dict(m.get("dataset") or {}), loop, dict(m.get("best") or {}))
     return run, {"weights": weights, "optimizer": optim, "state": loop, "step_reached": be.step_reached,
-                 "best": run.best, "best_weights": best or None,
+                 "best": run.best, "best_weights": best or None, "mining": mining,
                  "backend": m["backend"], "metrics": m.get("metrics", {})}

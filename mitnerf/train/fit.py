@@ -105,6 +105,7 @@ def fit(dataset: Dataset, recipe: Recipe, backend: str = "drjit", *, resume: dic
     if resume is not None:
         be.set_weights(resume["weights"])
         be.load_optimizer_state(resume["optimizer"])
+        be.load_sampling_state(resume.get("mining") or {})
         be.step_reached = resume.get("step_reached")
         run.state, run.best = resume["state"], dict(resume.get("best", {}))
         run.snapshot = resume.get("best_weights")

@@ -17,8 +17,8 @@ weights are divided by their mean over the batch: :math:`\alpha = 1` is importan
 estimate, unbiased), :math:`\alpha = 0` hard mining (the drawn rays as they come); between them, soft mining. The
 uniform share bounds every weight, before the division, by :math:`(1 - s)^{-\alpha}`.
 
-The map lives in the training process only: a resumed run starts it afresh (it refills within
-``T / batch`` steps). ``benchmarks/lego.py`` measures the setting against uniform draws."""
+A checkpoint keeps the map and the errors not yet recorded in it (``Backend.sampling_state``): a resumed run draws
+the batches the run would have drawn. ``benchmarks/lego.py`` measures the setting against uniform draws."""
 
 from __future__ import annotations
 
@@ -94,4 +94,4 @@ class ErrorMap:
     def record(self, index: np.ndarray, error: np.ndarray) -> None:
         """Set the tiles of the rays at flat ``index`` ``[m]`` to their errors ``[m]`` (RMS colour residual;
         of two rays in one tile, the later one's)."""
-        self.error[self.tile_of(index)] = np.nan_to_num(np.asarray(error, np.float64), nan=UNSEEN)
+        self.error[self.tile_of(index)] = np.nan_to_num(np.asarray(error, np.float64), nan=UNSEEN, posinf=UNSEEN)
