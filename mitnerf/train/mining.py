@@ -53,11 +53,15 @@ class ErrorMap:
     def __len__(self) -> int:
         return len(self.error)
 
-    def probabilities(self) -> np.ndarray:
-        """``[T]``: the chance that a draw lands in each tile, ``n_t p_i`` (uniform while every error is 0)."""
-        total = float(np.dot(self.error, self.pixels))
+    def chance(self, error: np.ndarray, total: float) -> np.ndarray:
+        """``p_i`` of pixels whose tiles hold ``error`` ``[m]``, with ``total`` the errors' sum over every pixel
+        (uniform while every error is 0)."""
         share = self.share if total > 0 else 0.0
-        return self.pixels * (share * self.error / max(total, 1e-300) + (1.0 - share) / self.n_pixels)
+        return share * error / max(total, 1e-300) + (1.0 - share) / self.n_pixels
+
+    def probabilities(self) -> np.ndarray:
+        """``[T]``: the chance that a draw lands in each tile, ``n_t p_i``."""
+        return self.pixels * self.chance(self.error, float(np.dot(self.error, self.pixels)))
 
     def draw(self, seed: int, batch: int) -> tuple[np.ndarray, np.ndarray]:
         """``(flat pixel indices [batch] int64, loss weights [batch] float32 of mean 1)`` of batch ``seed``: each ray
@@ -80,7 +84,7 @@ class ErrorMap:
             col = tc * self.tile + np.minimum((u[2][mined] * w).astype(np.int64), w - 1)
             _, H, W = self.shape
             index[mined] = (view * H + row) * W + col
-        p = share * self.error[self.tile_of(index)] / max(total, 1e-300) + (1.0 - share) / self.n_pixels
+        p = self.chance(self.error[self.tile_of(index)], total)
         weight = (p * self.n_pixels) ** -self.alpha                                 # (1 / (N p_i))^alpha
         return index, (weight / weight.mean()).astype(np.float32)
 
