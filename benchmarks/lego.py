@@ -22,12 +22,13 @@ against. Part ``grey`` (``lego/grey/3600``) runs part ``3600``'s command with ``
 lattice with one set of view harmonics shared by the three channels (``GridSettings.view_color``), half the
 colour's floats, so more steps in the hour and less memory. The default draws most of a batch's rays where the
 field's last errors were (``TrainConfig.mining``, ``Sizing.mining``); part ``uniform`` (``lego/uniform/600``) runs
-part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly, as before mining. Run it beside part
-``600`` in one session: the pair is measured on one machine.
+part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly, as before mining; part
+``uniform-hour`` (``lego/uniform/3600``) the same beside part ``3600``. Run each beside its default in one session:
+the pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform]
+    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform uniform-hour]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -45,17 +46,19 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform")
+PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform", "uniform-hour")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
 """Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
-VARIANTS = {"single": ("600", "density_refine=1"), "grey": ("3600", "view_color=grey"), "uniform": ("600", "mining=0")}
-"""Parts that run a budget's plain command with one ``--set``: ``(seconds, setting)``; ``single``: one lattice for
-density and colour, against part ``600``'s default; ``grey``: grey view harmonics, against part ``3600``'s;
-``uniform``: every batch drawn uniformly (twice the rays), against part ``600``'s mined batches."""
+VARIANTS = {"single": ("single", "600", "density_refine=1"), "grey": ("grey", "3600", "view_color=grey"),
+            "uniform": ("uniform", "600", "mining=0"), "uniform-hour": ("uniform", "3600", "mining=0")}
+"""Parts that run a budget's plain command with one ``--set``: ``(row, seconds, setting)``, recorded as
+``lego/<row>/<seconds>``; ``single``: one lattice for density and colour, against part ``600``'s default; ``grey``:
+grey view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice
+the rays), against parts ``600``'s and ``3600``'s mined batches."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -131,8 +134,8 @@ def main(argv=None) -> int:
     p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                    help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
                         "(fit --auto), resolution (the 3600 s field on views twice smaller and on its training "
-                        "views), single (part 600 with one lattice for density and colour) and grey (part 3600 with "
-                        "grey view harmonics)")
+                        "views), single (part 600 with one lattice for density and colour), grey (part 3600 with "
+                        "grey view harmonics), uniform and uniform-hour (parts 600 and 3600 with uniform draws)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -186,11 +189,11 @@ def main(argv=None) -> int:
                           threads=TrainConfig().threads)
             continue
         if budget in VARIANTS:
-            seconds, setting = VARIANTS[budget]
-            run = fit(args.data, seconds, f"{budget}-{seconds}", "--set", setting)
+            row, seconds, setting = VARIANTS[budget]
+            run = fit(args.data, seconds, f"{row}-{seconds}", "--set", setting)
             v = values_of(run)
-            print(f"lego/{budget}/{seconds}: {summary(v)}\n    {run['first']}")
-            record_result(f"lego/{budget}/{seconds}", v, summary(v), run["command"], recipe=v["recipe"],
+            print(f"lego/{row}/{seconds}: {summary(v)}\n    {run['first']}")
+            record_result(f"lego/{row}/{seconds}", v, summary(v), run["command"], recipe=v["recipe"],
                           threads=TrainConfig().threads)
             continue
         run = fit(args.data, budget)
