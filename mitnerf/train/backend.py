@@ -12,7 +12,7 @@ from ..errors import CheckpointError
 from ..geometry.mesh import LEVEL
 from ..rng import batch_indices, uniform_np
 from .config import ModelConfig, TrainConfig
-from .mining import UNSEEN, ErrorMap
+from .mining import ErrorMap, finite
 
 
 def model_fields(cfg: ModelConfig, dim: int, bound: float, make_field) -> dict:
@@ -149,8 +149,7 @@ class Backend(ABC):
         out = {"error": self.errors.error.astype(np.float32)}
         for i, (index, error) in enumerate(self._in_flight):
             out[f"flight{i}.index"] = np.asarray(index, np.int64)
-            error = np.nan_to_num(self._errors_of(error), nan=UNSEEN, posinf=UNSEEN)
-            out[f"flight{i}.error"] = error.astype(np.float32)
+            out[f"flight{i}.error"] = finite(self._errors_of(error)).astype(np.float32)
         return out
 
     def load_sampling_state(self, arrays: dict[str, np.ndarray], where: str = "the checkpoint") -> None:

@@ -98,4 +98,9 @@ class ErrorMap:
     def record(self, index: np.ndarray, error: np.ndarray) -> None:
         """Set the tiles of the rays at flat ``index`` ``[m]`` to their errors ``[m]`` (RMS colour residual;
         of two rays in one tile, the later one's)."""
-        self.error[self.tile_of(index)] = np.nan_to_num(np.asarray(error, np.float64), nan=UNSEEN, posinf=UNSEEN)
+        self.error[self.tile_of(index)] = finite(error)
+
+
+def finite(error) -> np.ndarray:
+    """Per-ray errors ``[m]`` as float64, a diverged ray's (NaN or infinite) read as :data:`UNSEEN`."""
+    return np.nan_to_num(np.asarray(error, np.float64), nan=UNSEEN, posinf=UNSEEN)
