@@ -29,13 +29,14 @@ METAVARS = {"int": "N", "float": "X", "tuple": "A,B,..."}
 
 
 def setting(default=dataclasses.MISSING, *, lo=None, hi=None, above: bool = False, choices=None, flag=None,
-            unit: str = "", parse=None, factory=dataclasses.MISSING, metavar=None, shown=None):
+            unit: str = "", parse=None, factory=dataclasses.MISSING, metavar=None, shown=None, selects: bool = False):
     """A dataclass field and its checks: a number (or each number of a tuple) in ``[lo, hi]`` (``(lo, hi]`` with
     ``above``), or one of ``choices``; ``flag``: its command-line flag; ``unit``: shown in the help; ``parse``:
     how the flag's text becomes the value (default: by the type); ``shown``: the default as the help names it
-    (default: the value)."""
+    (default: the value); ``selects``: it chooses which of an experiment's runs take place, so a value other than
+    the default runs part of the experiment (:func:`~mitnerf.experiments.reproduction.partial`)."""
     meta = {KEY: dict(lo=lo, hi=hi, above=above, choices=tuple(choices) if choices else None, flag=flag, unit=unit,
-                      parse=parse, metavar=metavar, shown=shown)}
+                      parse=parse, metavar=metavar, shown=shown, selects=selects)}
     if factory is not dataclasses.MISSING:
         return dataclasses.field(default_factory=factory, metadata=meta)
     return dataclasses.field(default=default, metadata=meta)

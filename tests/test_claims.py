@@ -248,3 +248,28 @@ def test_experiment_all_refuses_set_and_writes_nothing(tmp_path, capsys):
     assert main(["experiment", "all", "--out", str(out), "--set", "steps=3"]) == 2
     assert "--set applies to one experiment" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_run_of_part_of_an_experiment_leaves_its_record(tmp_path, monkeypatch, capsys):
+    """`mitnerf experiment window-shop` records its rows; the same with `--set combinations=[7,9]` (two of the ten
+    rows) prints one line and leaves that record as it was; so does `--set additions=false`. A setting that does not
+    choose the runs (the budget) records."""
+    from mitnerf.cli import main
+    from mitnerf.experiments import EXPERIMENTS
+
+    path = tmp_path / "results.json"
+    monkeypatch.setenv("MITNERF_RESULTS", str(path))
+    monkeypatch.setattr(EXPERIMENTS["window-shop"], "run", lambda cfg, out: table2_rows())
+    key = "experiment/window-shop"
+
+    assert main(["experiment", "window-shop", "--out", str(tmp_path / "a")]) == 0
+    whole = json.loads(path.read_text())[key]
+    assert len(whole["values"]["rows"]) == len(table2_rows())
+    for i, chosen in enumerate(("combinations=[7, 9]", "additions=false")):
+        assert main(["experiment", "window-shop", "--out", str(tmp_path / f"p{i}"), "--set", chosen]) == 0
+        assert json.loads(path.read_text())[key] == whole
+        name = chosen.split("=")[0]
+        assert f"not recorded in the results file: --set {name} runs part of experiment window-shop" in \
+            capsys.readouterr().out
+    assert main(["experiment", "window-shop", "--out", str(tmp_path / "b"), "--set", "time_budget=60"]) == 0
+    assert json.loads(path.read_text())[key]["command"].endswith("--set time_budget=60")

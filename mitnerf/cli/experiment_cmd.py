@@ -1,5 +1,6 @@
 """``mitnerf experiment NAME --out DIR [--quick] [--seed S] [--set KEY=VALUE ...]`` (:mod:`mitnerf.experiments`; a
-full run of one of :data:`~mitnerf.experiments.reproduction.REPRODUCE` records its rows in the results file, and
+full run of one of :data:`~mitnerf.experiments.reproduction.REPRODUCE` records its rows in the results file, a run of
+part of it (``--set`` on a setting that chooses its runs) leaves the record alone, and
 ``experiment all`` runs them all: :mod:`~mitnerf.experiments.reproduction`) and ``mitnerf sweep --out DIR ...``
 (:mod:`~mitnerf.experiments.sweep`)."""
 
@@ -15,7 +16,7 @@ from pathlib import Path
 from .._io import Output
 from ..errors import ConfigError
 from ..experiments import EXPERIMENTS
-from ..experiments.reproduction import REPRODUCE, record, write
+from ..experiments.reproduction import REPRODUCE, partial, record, write
 from ..experiments.sweep import Config, build_rows, parse_budget, run as sweep_rows
 from ..results import load_results
 from ..settings import check, check_value, field_named, parse_set, setting
@@ -87,8 +88,9 @@ def run_experiment(args) -> int:
             done = names[:names.index(n)]
             exc.note = f"; finished and kept in {out}: {', '.join(done)}" if done else ""
             raise
-        if not args.quick and n in REPRODUCE:
-            record(n, cfgs[n], rows, time.perf_counter() - t0, command)
+        if not args.quick and n in REPRODUCE and record(n, cfgs[n], rows, time.perf_counter() - t0, command) is None:
+            print(f"not recorded in the results file: --set {', '.join(partial(cfgs[n]))} runs part of experiment "
+                  f"{n}; its record stays", flush=True)
         print(f"wrote {where / 'report.md' if (where / 'report.md').exists() else where}", flush=True)
     if args.name == "all":
         print(f"wrote {write(load_results(), out, command)}")

@@ -26,9 +26,9 @@ METHODS = (("NeRF", False), ("DS-NeRF", True))
 class Config:
     """The NeRF / DS-NeRF comparison."""
 
-    scenes: tuple = setting(("square", "square_concave", "bunny", "tu"))
+    scenes: tuple = setting(("square", "square_concave", "bunny", "tu"), selects=True)
     """2D scenes (NeRF2D's four)."""
-    views: tuple = setting((2, 5, 10), lo=1, hi=100_000)
+    views: tuple = setting((2, 5, 10), lo=1, hi=100_000, selects=True)
     """Numbers of evenly spaced training views."""
     width: int = setting(32, lo=2, hi=1024)
     """MLP width."""

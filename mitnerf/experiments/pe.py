@@ -23,7 +23,7 @@ from .report import markdown_table, mean_std, summarise, train_row, write_csv, w
 class Config:
     """The positional-encoding sweep."""
 
-    Ls: tuple = setting((0, 1, 2, 4, 6, 8, 10), lo=0, hi=24)
+    Ls: tuple = setting((0, 1, 2, 4, 6, 8, 10), lo=0, hi=24, selects=True)
     """Position frequencies to compare."""
     scene: str = setting("bunny")
     """2D scene."""

@@ -46,17 +46,17 @@ class Config:
     """Training outlines whose held-out views are scored."""
     n_unseen: int = setting(4, lo=0, hi=10 ** 6)
     """Outlines never trained on, scored like the training ones."""
-    eval_scenes: tuple = setting(("bunny", "tu"))
+    eval_scenes: tuple = setting(("bunny", "tu"), selects=True)
     """Scenes pixelNeRF never sees in training; NeRF is fitted to them."""
     eval_train_views: int = setting(40, lo=1, hi=100_000)
     """Views of each evaluation scene from which the ``k`` inputs are picked."""
     eval_test_views: int = setting(16, lo=1, hi=100_000)
     """Evenly spaced, noise-free test views of each evaluation scene."""
-    ks: tuple = setting((1, 3, 5, 9), lo=1, hi=100_000)
+    ks: tuple = setting((1, 3, 5, 9), lo=1, hi=100_000, selects=True)
     """Numbers of input views compared."""
     draws: int = setting(3, lo=1, hi=10 ** 6)
     """Input-view draws per (scene, k): the spread of every figure."""
-    encoders: tuple = setting(("frozen", "trained"), choices=("frozen", "trained"))
+    encoders: tuple = setting(("frozen", "trained"), choices=("frozen", "trained"), selects=True)
     """pixelNeRF variants."""
     model: PixelNeRFConfig = field(default_factory=PixelNeRFConfig)
     """pixelNeRF architecture (``encoder`` is set per variant)."""

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from .._io import atomic_write_text
 from ..results import machine_line, record_result
+from ..settings import spec
 from ..viz.panels import series_figure
 from . import EXPERIMENTS
 from .claims import CLAIMS, SOURCES, claims_table, verdict
@@ -44,8 +45,18 @@ def rows_of(results: dict, name: str) -> list[dict] | None:
     return results.get(f"experiment/{name}", {}).get("values", {}).get("rows")
 
 
-def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path: Path | None = None) -> dict:
-    """Store an experiment's rows (labels and the metrics in ``KEEP``), config and budget in the results file."""
+def partial(cfg) -> list[str]:
+    """The settings of ``cfg`` that choose its runs (``setting(selects=True)``) and differ from their defaults: a run
+    of part of the experiment (empty: the whole of it)."""
+    return [f.name for f in dataclasses.fields(cfg) if spec(f).get("selects")
+            and getattr(cfg, f.name) != type(cfg).__dataclass_fields__[f.name].default]
+
+
+def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path: Path | None = None) -> dict | None:
+    """Store an experiment's rows (labels and the metrics in ``KEEP``), config and budget in the results file; a run
+    of part of it (:func:`partial`) stores nothing, so the record of the whole stays (None)."""
+    if partial(cfg):
+        return None
     verdicts = [f"{c.key}: {verdict(c, rows)[1].split(':')[0]}" for c in CLAIMS if c.experiment == name and rows]
     budget = BUDGETS[name](cfg) if name in BUDGETS else ""
     slim = [{k: v for k, v in r.items() if (k in KEEP or not isinstance(v, float))

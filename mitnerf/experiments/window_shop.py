@@ -38,7 +38,7 @@ ARCHITECTURES = {"ours": dict(width=64, depth=4, skip=2, dir_L=1), "paper": dict
 class Config:
     """The table's objects, budgets and architecture."""
 
-    objects: tuple = setting(("brick", "vase"))
+    objects: tuple = setting(("brick", "vase"), selects=True)
     """3D objects of ours (``brick``: thin parts and printed detail, like the report's Lego)."""
     data: str | None = setting(None)
     """The report's own data instead of our objects: a tiny-NeRF ``.npz`` (its first 100 views are the pool, view
@@ -49,7 +49,7 @@ class Config:
     """Photos rendered per object; a run with N images uses the first N."""
     test_views: int = setting(16, lo=1, hi=100_000)
     """Noise-free test views on the 360 degree orbit."""
-    combinations: tuple = setting(tuple(COMBINATIONS), choices=tuple(COMBINATIONS))
+    combinations: tuple = setting(tuple(COMBINATIONS), choices=tuple(COMBINATIONS), selects=True)
     """Which of the report's combinations to run."""
     architecture: str = setting("ours", choices=tuple(ARCHITECTURES))
     """``ours`` or ``paper`` (``ARCHITECTURES``)."""
@@ -66,9 +66,9 @@ class Config:
     """Rays per step."""
     time_budget: float = setting(120.0, lo=0, above=True, hi=10 ** 7)
     """Seconds of training per row (the same for every row)."""
-    additions: bool = setting(True)
+    additions: bool = setting(True, selects=True)
     """Also run our additions table."""
-    addition_views: tuple = setting((5, 200), lo=1, hi=100_000)
+    addition_views: tuple = setting((5, 200), lo=1, hi=100_000, selects=True)
     """Photo counts of the grid and hash-grid rows (the fine pass runs at 5 and 25)."""
     seed: int = setting(0, lo=0, hi=2 ** 31)
     """Seed of the photos' placement and of every training."""
