@@ -48,8 +48,9 @@ def rows_of(results: dict, name: str) -> list[dict] | None:
 def partial(cfg) -> list[str]:
     """The settings of ``cfg`` that choose its runs (``setting(selects=True)``) and differ from their defaults: a run
     of part of the experiment (empty: the whole of it)."""
+    whole = type(cfg)()
     return [f.name for f in dataclasses.fields(cfg) if spec(f).get("selects")
-            and getattr(cfg, f.name) != type(cfg).__dataclass_fields__[f.name].default]
+            and getattr(cfg, f.name) != getattr(whole, f.name)]
 
 
 def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path: Path | None = None) -> dict | None:
