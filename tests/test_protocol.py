@@ -233,20 +233,6 @@ def test_views_finer_than_the_cap_refine_the_density_and_keep_the_floats_of_the_
     assert (two.model.render.occupancy.march_bins, two.model.render.n_coarse) == (510, 64)
 
 
-def test_a_long_budget_trains_with_the_samples_it_can_spare():
-    """grid-3d takes 64 samples a ray below half an hour of training and 128 from 1800 s on, on the same bins (510,
-    the views of focal 555.5 above); a budget of steps keeps 64; samples set on the recipe stay whatever the budget."""
-    def sized(**settings):
-        render = get_recipe("grid-3d").override(**settings).sized(views_at(555.5)).model.render
-        return render.n_coarse, render.occupancy.march_bins
-
-    assert [sized(time_budget=b) for b in (600.0, 1799.0, 1800.0, 3600.0)] == [(64, 510)] * 2 + [(128, 510)] * 2
-    assert get_recipe("grid-3d").override(nulls=True, time_budget=None).sized(views_at(555.5)).model.render \
-        .n_coarse == 64
-    assert sized(time_budget=3600.0, n_coarse=96) == (96, 510)
-    assert get_recipe("hashlinear-3d").override(time_budget=3600.0).sized(views_at(555.5)).model.render.n_coarse == 64
-
-
 def test_a_refined_lattice_is_sized_within_the_density_limit():
     """A density refined 3 times may have 1025 vertices a side at most, so its colour lattice 1024 // 3 + 1 = 342:
     views asking for 4126 vertices (focal 5000), the cap raised past that (max_resolution 2000), three doublings:

@@ -51,8 +51,7 @@ class Recipe:
         sizing = d.get("sizing")
         return cls(d["name"], int(d["dim"]), ModelConfig.from_dict(d["model"]), TrainConfig(**train),
                    d.get("about", ""), d.get("purpose", ""),
-                   None if sizing is None else Sizing(**{**sizing, "fixed": tuple(sizing["fixed"]),
-                                                 "long_samples": tuple(sizing.get("long_samples", ()))}))
+                   None if sizing is None else Sizing(**{**sizing, "fixed": tuple(sizing["fixed"])}))
 
     def sized(self, dataset) -> "Recipe":
         """A copy with the sizes :attr:`sizing` takes from ``dataset`` (``self`` where it has none): a dense grid's
@@ -68,9 +67,8 @@ class Recipe:
         the fullest axis takes :attr:`Sizing.vertices_per_pixel` vertices a pixel of the images' longer side, and the
         occupancy grid keeps the recipe's sizes. A grid whose density is refined (``density_refine`` k) keeps the
         cap's floats on fewer vertices (:attr:`GridConfig.refined_share`), with :attr:`Sizing.samples_per_vertex`
-        bins a density spacing; the recipe's :attr:`Sizing.density_refine` is that k where the pixels ask for it;
-        :attr:`Sizing.samples` per ray, or :attr:`Sizing.long_samples` for a long enough budget. A size set on the
-        recipe stays."""
+        bins a density spacing; the recipe's :attr:`Sizing.density_refine` is that k where the pixels ask for it. A
+        size set on the recipe stays."""
         if self.sizing is None:
             return self
         out, s = self.copy(), self.sizing
@@ -113,8 +111,7 @@ class Recipe:
             c = min(c, (most_vertices(k, dataset.dim) - 1) // 2 ** d)     # rounded up no further than the limit
         R = c * 2 ** d + 1
         sizes = {"resolution": R, "initial_resolution": c + 1, **({"box": box} if box else {}),
-                 "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)),
-                 "n_coarse": s.samples_for(out.train.time_budget),
+                 "resolutions": tuple(c * 2 ** j + 1 for j in range(d + 1)), "n_coarse": s.samples,
                  "occupancy.resolution": min(128, round((R - 1) * dataset.bound / full)),
                  "occupancy.march_bins": int(np.ceil((dataset.far - dataset.near) * s.samples_per_vertex * k * (R - 1)
                                                      / full)), **({"density_refine": k} if k > 1 else {})}
@@ -301,10 +298,9 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "2D's weights blur away), both scaled down where the lattice has fewer vertices than the training views have "
        "pixels (the lego's 100 views of 400 x 400: 0.17 colour vertices a pixel), where a step also draws most of "
        "its rays where the field's last errors were (mining 0.8) rather than uniformly; renders with twice the "
-       "samples of training on the same occupancy bins, and trains with twice the samples too where the budget is "
-       "half an hour or more (benchmarks/lego.py)",
+       "samples of training on the same occupancy bins (benchmarks/lego.py)",
        Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0,
-              density_refine=2, mining=0.8, long_samples=(1800.0, 128))),
+              density_refine=2, mining=0.8)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
                                               tv_color_weight=3e-4),

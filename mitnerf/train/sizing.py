@@ -43,11 +43,6 @@ class Sizing:
     density is refined)."""
     samples: int = 64
     """Samples per ray (the occupancy sampler's slots)."""
-    long_samples: tuple = ()
-    """``(seconds, samples)``: a training budget of at least this many seconds takes this many samples per ray in
-    place of :attr:`samples` (empty: :attr:`samples` whatever the budget). The occupancy sampler spreads its slots
-    over a ray's occupied bins, so more slots sample a fine lattice more finely, at a cost per step that a short
-    budget pays in steps and a long one can spare (``benchmarks/lego.py``)."""
     density_refine: int = 1
     """A dense grid's density takes a lattice this many times finer than its colour's (``GridConfig.density_refine``)
     where the training pixels ask for at least that density lattice: this many times the spacings of the colour
@@ -70,9 +65,3 @@ class Sizing:
     recipe's batch takes, their rays where the field is still wrong. 0: twice the rays, drawn uniformly."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`~.recipes.Recipe.override`), which the data leaves alone."""
-
-    def samples_for(self, budget: float | None) -> int:
-        """Samples per ray for a training budget of ``budget`` seconds (None: a budget of steps, :attr:`samples`)."""
-        if self.long_samples and budget is not None and budget >= self.long_samples[0]:
-            return int(self.long_samples[1])
-        return self.samples
