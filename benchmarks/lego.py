@@ -23,12 +23,16 @@ lattice with one set of view harmonics shared by the three channels (``GridSetti
 colour's floats, so more steps in the hour and less memory. The default draws most of a batch's rays where the
 field's last errors were (``TrainConfig.mining``, ``Sizing.mining``); part ``uniform`` (``lego/uniform/600``) runs
 part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly, as before mining; part
-``uniform-hour`` (``lego/uniform/3600``) the same beside part ``3600``. Run each beside its default in one session:
+``uniform-hour`` (``lego/uniform/3600``) the same beside part ``3600``. Part ``samples128`` (``lego/samples128/3600``)
+runs part ``3600``'s command with ``--set n_coarse=128``: twice the samples a ray, so fewer steps in the hour; part
+``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part
+``800``'s. Run each beside its default in one session:
 the pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform uniform-hour]
+    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform uniform-hour samples128
+                               800-samples128]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -46,19 +50,24 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform", "uniform-hour")
+PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform", "uniform-hour", "samples128",
+         "800-samples128")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
+UPSAMPLED = {"800": ("lego800/upsampled", ()), "800-samples128": ("lego800/samples128", ("--set", "n_coarse=128"))}
+"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
 """Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
 VARIANTS = {"single": ("single", "600", "density_refine=1"), "grey": ("grey", "3600", "view_color=grey"),
-            "uniform": ("uniform", "600", "mining=0"), "uniform-hour": ("uniform", "3600", "mining=0")}
+            "uniform": ("uniform", "600", "mining=0"), "uniform-hour": ("uniform", "3600", "mining=0"),
+            "samples128": ("samples128", "3600", "n_coarse=128")}
 """Parts that run a budget's plain command with one ``--set``: ``(row, seconds, setting)``, recorded as
 ``lego/<row>/<seconds>``; ``single``: one lattice for density and colour, against part ``600``'s default; ``grey``:
 grey view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice
-the rays), against parts ``600``'s and ``3600``'s mined batches."""
+the rays), against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part
+``3600``'s."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -135,7 +144,8 @@ def main(argv=None) -> int:
                    help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
                         "(fit --auto), resolution (the 3600 s field on views twice smaller and on its training "
                         "views), single (part 600 with one lattice for density and colour), grey (part 3600 with "
-                        "grey view harmonics), uniform and uniform-hour (parts 600 and 3600 with uniform draws)")
+                        "grey view harmonics), uniform and uniform-hour (parts 600 and 3600 with uniform draws), "
+                        "samples128 and 800-samples128 (parts 3600 and 800 with 128 samples a ray)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -145,18 +155,20 @@ def main(argv=None) -> int:
     from mitnerf.train.config import TrainConfig
 
     for budget in args.parts:
-        if budget == "800":
+        if budget in UPSAMPLED:
+            key, flags = UPSAMPLED[budget]
             (ROOT / "out").mkdir(exist_ok=True)
             with tempfile.TemporaryDirectory(dir=ROOT / "out") as tmp:
-                run = fit(upsampled(args.data, Path(tmp)), BUDGET_800, "800")
+                run = fit(upsampled(args.data, Path(tmp)), BUDGET_800, budget, *flags)
                 command = run["command"].replace(str(Path(tmp).relative_to(ROOT)), "<lego_400 upsampled>")
             v = values_of(run)
-            line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest): peak memory {v['peak_gib']:.2f} "
-                    f"GiB, evaluation of {v['views']} test views {v['eval_s']:.0f} s (rendering "
+            line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest)" + "".join(f" {f}" for f in flags)
+                    + f": peak memory {v['peak_gib']:.2f} GiB, evaluation of {v['views']} test views "
+                    f"{v['eval_s']:.0f} s (rendering "
                     f"{v['render_s']:.0f} s), after {v['train_s']:.0f} s of training ({v['steps']} steps); "
                     f"recipe {v['recipe']}")
-            print(f"lego800/upsampled: {line}")
-            record_result("lego800/upsampled", v, line, f"python benchmarks/lego.py --parts 800 (runs: {command})",
+            print(f"{key}: {line}")
+            record_result(key, v, line, f"python benchmarks/lego.py --parts {budget} (runs: {command})",
                           recipe=v["recipe"], threads=TrainConfig().threads)
             continue
         if budget == "resolution":

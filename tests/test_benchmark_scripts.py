@@ -110,8 +110,8 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
 
 def test_lego_single_grey_and_uniform_run_a_budgets_command_with_one_setting(results, tmp_path, monkeypatch):
     """Part single: part 600's fit with ``--set density_refine=1``; part grey: part 3600's with ``--set
-    view_color=grey``; parts uniform and uniform-hour: parts 600's and 3600's with ``--set mining=0``; each in its
-    own folder, recorded beside the default."""
+    view_color=grey``; parts uniform and uniform-hour: parts 600's and 3600's with ``--set mining=0``; part
+    samples128: part 3600's with ``--set n_coarse=128``; each in its own folder, recorded beside the default."""
     from benchmarks import lego
 
     (tmp_path / "transforms_train.json").write_text("{}")
@@ -126,11 +126,12 @@ def test_lego_single_grey_and_uniform_run_a_budgets_command_with_one_setting(res
 
     monkeypatch.setattr(lego, "fit", fake_fit)
     assert lego.main(["--data", str(tmp_path), "--parts", "single", "grey", "uniform",
-                      "uniform-hour"]) == 0
+                      "uniform-hour", "samples128"]) == 0
     assert seen == [("600", "single-600", ("--set", "density_refine=1")),
                     ("3600", "grey-3600", ("--set", "view_color=grey")), ("600", "uniform-600", ("--set", "mining=0")),
-                    ("3600", "uniform-3600", ("--set", "mining=0"))]
-    assert {"lego/grey/3600", "lego/uniform/600", "lego/uniform/3600"} <= set(load_results())
+                    ("3600", "uniform-3600", ("--set", "mining=0")),
+                    ("3600", "samples128-3600", ("--set", "n_coarse=128"))]
+    assert {"lego/grey/3600", "lego/uniform/600", "lego/uniform/3600", "lego/samples128/3600"} <= set(load_results())
     entry = load_results()["lego/single/600"]
     assert entry["values"]["psnr"] == 31.0 and "density_refine=1" in entry["command"]
     from benchmarks import report
@@ -205,21 +206,25 @@ def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, 
     assert (big / "transforms_train.json").read_text() == '{"camera_angle_x": 0.7, "frames": []}'
     seen = []
 
-    def fake_fit(data, budget, part=None):
-        seen.append((data, budget, part, sorted(p.name for p in data.iterdir())))
+    def fake_fit(data, budget, part=None, *flags):
+        seen.append((data, budget, part, sorted(p.name for p in data.iterdir()), flags))
         return {"metrics": {"psnr": 20.0, "ssim": 0.9, "train_time": 150.1, "steps": 900, "eval_time": 110.0,
                             "render_time": 0.45, "peak_memory": 3.5, "views": 200, "background": "white",
                             "recipe": "grid-3d"},
                 "size": "800 x 800", "wall": 400.0, "first": "recipe grid-3d: ...", "last": "",
-                "command": f"python -m mitnerf fit --data {data.relative_to(lego.ROOT)} --time-budget {budget}"}
+                "command": " ".join(["python -m mitnerf fit --data", str(data.relative_to(lego.ROOT)), *flags,
+                                     "--time-budget", budget])}
 
     monkeypatch.setattr(lego, "fit", fake_fit)
-    assert lego.main(["--data", str(tmp_path), "--parts", "800"]) == 0
-    assert seen[0][1:] == ("150", "800", ["train", "transforms_train.json"])
+    assert lego.main(["--data", str(tmp_path), "--parts", "800", "800-samples128"]) == 0
+    assert seen[0][1:] == ("150", "800", ["train", "transforms_train.json"], ())
+    assert seen[1][1:] == ("150", "800-samples128", ["train", "transforms_train.json"], ("--set", "n_coarse=128"))
     assert not seen[0][0].exists()                                   # the temporary folder is gone
     entry = load_results()["lego800/upsampled"]
     assert "peak memory 3.50 GiB, evaluation of 200 test views 110 s (rendering 90 s)" in entry["summary"]
     assert "<lego_400 upsampled>" in entry["command"] and "tmp" not in entry["command"]
+    command = load_results()["lego800/samples128"]["command"]
+    assert command.startswith("python benchmarks/lego.py --parts 800-samples128") and "n_coarse=128" in command
     from benchmarks import report
 
     assert "lego800" not in report.lego_table(load_results())           # no PSNR row of blocky views
