@@ -158,14 +158,19 @@ class Output:
     def staged(self) -> Iterator[Path]:
         """Yield a hidden staging folder beside the output; when the block succeeds its content becomes the output
         (see the module's rules; a foreign folder with ``overwrite`` gets the files, not the folder)."""
-        tmp = None
+        tmp, committed = None, False
         try:
             tmp = self._staging()
             yield tmp
             with no_interrupts():
                 self._commit(tmp)
+                committed = True
         except OSError as exc:          # named by the output, not by the hidden folder it was staged in
             raise OutputError(f"cannot write {os_error_line(exc, where=self.requested)}") from None
+        except KeyboardInterrupt as exc:
+            if committed:               # the signal waited for the commit: the interrupt's line says so
+                exc.note = f"; {self.requested} was written whole before the signal was taken"
+            raise
         finally:
             if tmp is not None:
                 remove_tree(tmp)       # the staging folder, or (after an exchange) the previous output
