@@ -236,6 +236,7 @@ def test_a_signal_held_through_the_commit_leaves_the_whole_output_and_its_line_s
     """SIGINT during the commit waits for it (``no_interrupts``): the output is there whole, no staging folder is
     left, and the interrupt carries the note its one line ends with."""
     from mitnerf._io import Output
+    from mitnerf.cli import _signals_raise
 
     out, commit = Output(tmp_path / "o", "dataset"), Output._commit
 
@@ -244,7 +245,7 @@ def test_a_signal_held_through_the_commit_leaves_the_whole_output_and_its_line_s
         commit(self, tmp)
 
     monkeypatch.setattr(Output, "_commit", signalled_commit)
-    with pytest.raises(KeyboardInterrupt) as info:
+    with _signals_raise(), pytest.raises(KeyboardInterrupt) as info:    # the command line's handlers, as it runs
         with out.staged() as tmp:
             (tmp / "a.txt").write_text("x")
     assert os.listdir(tmp_path) == ["o"] and (tmp_path / "o" / "a.txt").read_text() == "x"
