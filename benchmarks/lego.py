@@ -26,8 +26,7 @@ part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly,
 ``uniform-hour`` (``lego/uniform/3600``) the same beside part ``3600``. Part ``samples128`` (``lego/samples128/3600``)
 runs part ``3600``'s command with ``--set n_coarse=128``: twice the samples a ray, so fewer steps in the hour; part
 ``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part
-``800``'s. Run each beside its default in one session:
-the pair is measured on one machine.
+``800``'s. Run each beside its default in one session: the pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
@@ -54,8 +53,6 @@ PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform"
          "800-samples128")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
-UPSAMPLED = {"800": ("lego800/upsampled", ()), "800-samples128": ("lego800/samples128", ("--set", "n_coarse=128"))}
-"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
 """Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
@@ -68,6 +65,9 @@ VARIANTS = {"single": ("single", "600", "density_refine=1"), "grey": ("grey", "3
 grey view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice
 the rays), against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part
 ``3600``'s."""
+UPSAMPLED = {"800": ("lego800/upsampled", ()),
+             "800-samples128": ("lego800/samples128", ("--set", VARIANTS["samples128"][2]))}
+"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
