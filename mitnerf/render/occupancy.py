@@ -47,6 +47,12 @@ class OccupancyConfig:
     """Density below which a cell is empty (or the mean, if that is smaller)."""
     march_bins: int = setting(512, lo=1, hi=1 << 16)
     """Bins per ray in which occupancy is looked up (the finest sample spacing)."""
+    early_stop: float = setting(0.0, lo=0.0, hi=1.0)
+    """In training, a ray's samples end where its transmittance through the occupied bins, by the field's detached
+    density at their centres, falls below this (nerfacc's ``early_stop_eps``): its slots go to the bins in front,
+    finer there, where a ray through a thick object would spread them over bins it cannot see. 0: over all the
+    occupied bins. A render (no gradients) ends each march by its integral's transmittance instead
+    (:mod:`.integral`), on all its slots: ``benchmarks/lego.py``."""
 
 
 def cell_index(x: list, bound: float, res: int):
@@ -129,6 +135,11 @@ class OccupiedSampler:
     seed: UInt32
     jitter: bool = True
     space: Space = Space()
+    density: object = None
+    """``density(x) -> Float``, the field's detached density at points ``x`` (the grid's space), with
+    :attr:`early_stop`: where the march may end; None: at the last occupied bin."""
+    early_stop: float = 0.0
+    """Transmittance at which the occupied bins end (:attr:`OccupancyConfig.early_stop`)."""
     grouped: bool = False
     """Look the rays up grouped by their count of bins (:func:`~.samplers.grouped`): for a training batch, whose rays
     come in no order; a view's rays come in pixel order, which groups them already and keeps neighbours together."""
@@ -141,14 +152,15 @@ class OccupiedSampler:
         lo, hi = (to_s(v, knee, dr.select) for v in (near, far))
         return to_t(lo + k * ((hi - lo) * (1.0 / self.bins)), knee, dr.select)
 
-    def _bin_occupied(self, origins, directions, ray, k, near, far):
+    def _bin_occupied(self, origins, directions, ray, k, near, far, points: bool = False):
         t = self._at(Float(k) + 0.5, near, far)
         d = [dr.gather(Float, di, ray) for di in directions]
         x = [dr.gather(Float, o, ray) + t * di for o, di in zip(origins, d)]
         if self.space.warped:
             x = self.space.warp(x, d, DRJIT)[0]
         cell, inside = cell_index(x, self.bound, self.resolution)
-        return inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
+        occ = inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
+        return (occ, x) if points else occ
 
     def _bins(self, origins: list, directions: list, near: Float, dt: Float) -> tuple[UInt32, UInt32]:
         """Per ray, the first and one past the last bin that can be occupied: those whose centres lie in the
@@ -179,12 +191,25 @@ class OccupiedSampler:
             first, end = dr.gather(UInt32, first, ray), dr.gather(UInt32, end, ray)
             near_r, far_r, dt = (per_sample(v, ray) for v in (near_r, far_r, dt))
 
-        def count_body(k, count):
-            occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
-            return k + 1, count + dr.select(occ, 1, 0)
+        if self.density is None or self.early_stop <= 0.0:
+            def count_body(k, count):
+                occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
+                return k + 1, count + dr.select(occ, 1, 0)
 
-        _, K = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, c: k < end, count_body,
-                             label="occupancy_count")
+            _, K = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, c: k < end, count_body,
+                                 label="occupancy_count")
+        else:
+            tau_end = float(-np.log(self.early_stop))
+
+            def count_body(k, count, tau):
+                occ, x = self._bin_occupied(origins, directions, ray, k, near_r, far_r, points=True)
+                width = self._at(Float(k + 1), near_r, far_r) - self._at(Float(k), near_r, far_r)
+                sigma = dr.select(occ, dr.detach(self.density(x)), 0.0)
+                return k + 1, count + dr.select(occ, 1, 0), tau + dr.maximum(sigma, 0.0) * width
+
+            end, K, _ = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays), dr.zeros(Float, n_rays)),
+                                      lambda k, c, tau: (k < end) & (tau < tau_end), count_body,
+                                      label="occupancy_count")
         stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
         # unused slots: t = far, delta = 0 (no contribution)
         t_out = dr.gather(Float, per_sample(Float(far), dr.arange(UInt32, n_rays)),

@@ -176,9 +176,12 @@ class Model(FieldSet):
         if occupancy is None or not cfg.occupancy.enabled:
             sampler = Stratified(n_coarse, seed, jitter=training, knee=space.knee)
         else:
-            sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins,
-                                      self.fields["coarse"].bound, cfg.occupancy.resolution, seed, jitter=training,
-                                      space=space, grouped=training).build(origins, directions, near, far)
+            coarse, p = self.fields["coarse"], {k: dr.detach(v) for k, v in split_params(params, "coarse").items()}
+            sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins, coarse.bound,
+                                      cfg.occupancy.resolution, seed, jitter=training, space=space,
+                                      density=lambda x: coarse.density(p, x),
+                                      early_stop=cfg.occupancy.early_stop if training else 0.0,
+                                      grouped=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
                   stop=0.0 if training else cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
