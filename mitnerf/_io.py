@@ -160,7 +160,8 @@ class Output:
         (see the module's rules; a foreign folder with ``overwrite`` gets the files, not the folder)."""
         tmp, committed = None, False
         try:
-            tmp = self._staging()
+            tmp = self._staging_name()      # named before it is made: the finally removes it whenever a signal falls
+            self._make_staging(tmp)
             yield tmp
             with no_interrupts():
                 self._commit(tmp)
@@ -176,15 +177,15 @@ class Output:
                 remove_tree(tmp)       # the staging folder, or (after an exchange) the previous output
             self.release()
 
-    def _staging(self) -> Path:
-        tmp = Path(self.path.parent, hidden(self.path, "tmp-") + secrets.token_hex(4))
+    def _staging_name(self) -> Path:
+        """A fresh staging folder's name beside the output (:meth:`_make_staging` makes it)."""
+        return Path(self.path.parent, hidden(self.path, "tmp-") + secrets.token_hex(4))
+
+    @staticmethod
+    def _make_staging(tmp: Path) -> None:
+        """Make the staging folder ``tmp`` with its staging note; the caller, which holds its name, removes it."""
         os.mkdir(tmp)
-        try:
-            (tmp / STAGING).write_bytes(b"")
-        except BaseException:
-            os.rmdir(tmp)
-            raise
-        return tmp
+        (tmp / STAGING).write_bytes(b"")
 
     def _commit(self, tmp: Path) -> None:
         p, merge = self.path, self.state[0] == "foreign"
@@ -246,8 +247,9 @@ class Output:
         :func:`atomic_write_bytes`); a new or empty folder gets the marker of ``kind``, a foreign one none."""
         p = self.path
         if self.state[0] in ("absent", "empty"):
-            tmp = self._staging()
+            tmp = self._staging_name()
             try:
+                self._make_staging(tmp)
                 (tmp / MARKER).write_bytes(self._marker(None))
                 os.unlink(tmp / STAGING)
                 fsync_tree(tmp)

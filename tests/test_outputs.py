@@ -232,6 +232,29 @@ def test_an_interrupted_dataset_says_so_in_one_line_and_leaves_nothing(tmp_path,
     assert "Traceback" not in err and os.listdir(tmp_path) == (["ds"] if whole else []), err
 
 
+def test_a_signal_just_after_the_staging_folder_is_made_leaves_nothing(tmp_path, monkeypatch):
+    """The interrupt falls between the staging folder's mkdir and anything after it (the moment the subprocess test
+    above watches for): the folder goes, for both a staged and a claimed output."""
+    from mitnerf._io import Output
+
+    mkdir = os.mkdir
+
+    def mkdir_then_signal(path, *args, **kw):
+        mkdir(path, *args, **kw)
+        if ".mitnerf-tmp-" in os.fspath(path):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "mkdir", mkdir_then_signal)
+    with pytest.raises(KeyboardInterrupt):
+        with Output(tmp_path / "o", "dataset").staged():
+            pass
+    claimed = Output(tmp_path / "c", "dataset")
+    with pytest.raises(KeyboardInterrupt):
+        claimed.claim()
+    claimed.release()                                   # as the command does at exit
+    assert os.listdir(tmp_path) == []
+
+
 def test_a_signal_held_through_the_commit_leaves_the_whole_output_and_its_line_says_so(tmp_path, monkeypatch):
     """SIGTERM during the commit waits for it (``no_interrupts``): the output is there whole, no staging folder is
     left, and the interrupt carries the note its one line ends with (SIGTERM: a job in the background, as CI may
