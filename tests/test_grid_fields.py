@@ -213,6 +213,68 @@ def test_the_sampler_looks_only_inside_the_box_of_occupied_cells():
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
+def test_early_stop_gives_a_thick_objects_front_the_samples_in_both_engines():
+    """A ray along x from x = -1 through a grid occupied everywhere, density 10 everywhere: 20 bins of 0.1 over
+    [0, 2], each of optical depth 1. With early_stop e^-3.5 the march takes bins while the optical depth in front
+    of them is under 3.5: bins 0, 1, 2, 3 (depth in front 0, 1, 2, 3; bin 4 has 4). Two slots: stride 2, samples
+    at the centres of bins 0 and 2 (t = 0.05, 0.25), each for 0.2. Without it: 20 bins, stride 10, samples at
+    bins 0 and 10 (t = 0.05, 1.05), each for 1.0. The torch twin places the same."""
+    import torch
+
+    from mitnerf.reference.render.occupancy import OccupancyGrid as TwinGrid, occupied_samples
+
+    cfg = OccupancyConfig(enabled=True, resolution=2, march_bins=20)
+    lookup = OccupancyGrid(cfg, 2, bound=1.0).lookup                  # every cell occupied before an update
+    o, d = [Float([-1.0]), Float([0.0])], [Float([1.0]), Float([0.0])]
+    for early_stop, t, delta in ((np.exp(-3.5), [0.05, 0.25], [0.2, 0.2]), (0.0, [0.05, 1.05], [1.0, 1.0])):
+        ex = OccupiedSampler(*lookup, 2, 20, 1.0, 2, UInt32(0), jitter=False, density=lambda x: 10.0 + 0.0 * x[0],
+                             early_stop=early_stop).build(o, d, 0.0, 2.0)
+        np.testing.assert_allclose(np.asarray(ex.t_flat), t, rtol=1e-5)
+        np.testing.assert_allclose(np.asarray(ex.delta_flat), delta, rtol=1e-5)
+        np.testing.assert_array_equal(np.asarray(ex.count), [2])
+        twin = occupied_samples(TwinGrid(cfg, 2, 1.0), torch.tensor([[-1.0, 0.0]]), torch.tensor([[1.0, 0.0]]),
+                                0.0, 2.0, 2, 0, False, density=lambda x: torch.full((x.shape[0],), 10.0),
+                                early_stop=early_stop)
+        np.testing.assert_allclose(twin.t.numpy().ravel(), t, rtol=1e-5)
+        np.testing.assert_allclose(twin.delta.numpy().ravel(), delta, rtol=1e-5)
+
+
+def test_early_stop_places_the_same_samples_in_both_engines_and_ends_rays_in_a_dense_blob():
+    """Random rays through a dense blob (density 40 exp(-|x|^2 / 0.1)), jittered: the engines place the same samples
+    with early_stop 1e-2, and the rays that cross the blob's core get theirs in front of it, more finely than
+    without it."""
+    import torch
+
+    from mitnerf.reference.render.occupancy import OccupancyGrid as TwinGrid, occupied_samples
+
+    cfg = OccupancyConfig(enabled=True, resolution=16, warmup=0, march_bins=128)
+    grid, twin_grid = OccupancyGrid(cfg, 2, bound=1.0), TwinGrid(cfg, 2, 1.0)
+    grid.update(lambda x: 40.0 * dr.exp(-(x[0] * x[0] + x[1] * x[1]) * 10.0), 0, 0)
+    twin_grid.load(grid.state())
+    rng = np.random.default_rng(0)
+    angle = rng.uniform(0, 2 * np.pi, 64)
+    o = np.stack([1.8 * np.cos(angle), 1.8 * np.sin(angle)], 1).astype(np.float32)
+    aim = rng.uniform(-0.4, 0.4, (64, 2)).astype(np.float32)
+    d = (aim - o) / np.linalg.norm(aim - o, axis=1, keepdims=True)
+    counts = []
+    for early_stop in (1e-2, 0.0):
+        ex = OccupiedSampler(*grid.lookup, 16, 128, 1.0, 16, UInt32(5), jitter=True, early_stop=early_stop,
+                             density=lambda x: 40.0 * dr.exp(-(x[0] * x[0] + x[1] * x[1]) * 10.0)).build(
+            [Float(o[:, 0]), Float(o[:, 1])], [Float(d[:, 0]), Float(d[:, 1])], 0.5, 3.5)
+        twin = occupied_samples(twin_grid, torch.from_numpy(o), torch.from_numpy(d), 0.5, 3.5, 16, 5, True,
+                                density=lambda x: 40.0 * torch.exp(-(x ** 2).sum(1) * 10.0), early_stop=early_stop)
+        np.testing.assert_allclose(np.asarray(ex.t_flat).reshape(64, 16), twin.t.numpy(), rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(np.asarray(ex.delta_flat).reshape(64, 16), twin.delta.numpy(), rtol=1e-5,
+                                   atol=1e-6)
+        last = np.asarray(ex.t_flat).reshape(64, 16)[np.arange(64), np.asarray(ex.count) - 1]
+        counts.append((np.asarray(ex.delta_flat).reshape(64, 16).max(1), last))
+    (fine, last_stop), (coarse, last_all) = counts
+    through = np.abs(o[:, 0] * d[:, 1] - o[:, 1] * d[:, 0]) < 0.15       # rays that pass within 0.15 of the centre
+    assert through.sum() >= 10
+    assert np.all(fine[through] < coarse[through]) and np.all(last_stop[through] < 1.8)
+    assert np.all(last_all[through] > 1.8)                 # without it, the samples reach past the blob's centre
+
+
 def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
     from mitnerf.data.cache import cached_dataset
     from mitnerf.data.rig import RigConfig

@@ -31,6 +31,8 @@ OPTIONS = {"plain": {}, "depth": dict(depth_weight=0.05), "free space": dict(fre
            "fine": dict(n_fine=16),
            "occupancy": {"occupancy.enabled": True, "occupancy.warmup": 4, "occupancy.update_every": 4,
                          "occupancy.resolution": 32},
+           "early stop": {"occupancy.enabled": True, "occupancy.warmup": 4, "occupancy.update_every": 4,
+                          "occupancy.resolution": 32, "occupancy.early_stop": 0.05},
            "regularisers": dict(distortion_weight=0.01, opacity_weight=0.01, view_dependent=True),
            "pixel jitter": dict(pixel_jitter=True)}
 

@@ -47,12 +47,13 @@ class OccupancyConfig:
     """Density below which a cell is empty (or the mean, if that is smaller)."""
     march_bins: int = setting(512, lo=1, hi=1 << 16)
     """Bins per ray in which occupancy is looked up (the finest sample spacing)."""
-    early_stop: float = setting(0.0, lo=0.0, hi=1.0)
+    early_stop: float = setting(0.0, lo=0.0, hi=0.5)
     """In training, a ray's samples end where its transmittance through the occupied bins, by the field's detached
     density at their centres, falls below this (nerfacc's ``early_stop_eps``): its slots go to the bins in front,
     finer there, where a ray through a thick object would spread them over bins it cannot see. 0: over all the
     occupied bins. A render (no gradients) ends each march by its integral's transmittance instead
-    (:mod:`.integral`), on all its slots: ``benchmarks/lego.py``."""
+    (:mod:`.integral`), on all its slots; a field that does not run inside the march (``traceable``: not the
+    tensor-mode networks) spreads them too. ``benchmarks/lego.py``."""
 
 
 def cell_index(x: list, bound: float, res: int):

@@ -180,7 +180,7 @@ class Model(FieldSet):
             sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins, coarse.bound,
                                       cfg.occupancy.resolution, seed, jitter=training, space=space,
                                       density=lambda x: coarse.density(p, x),
-                                      early_stop=cfg.occupancy.early_stop if training else 0.0,
+                                      early_stop=cfg.occupancy.early_stop if training and coarse.traceable else 0.0,
                                       grouped=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
                   stop=0.0 if training else cfg.min_color_weight, space=space)

@@ -25,6 +25,10 @@ class TwinField(nn.Module):
     """The twins' contract: ``cfg``, ``dim``, weights as numpy arrays under the canonical names, ``density(x)``,
     ``query(x, d)``, and a training schedule and regulariser (none by default)."""
 
+    traceable = True
+    """Whether the Dr.Jit field of the same name runs inside the fused march (its ``traceable``): a sampler may then
+    read its density while it places samples (:attr:`~mitnerf.render.occupancy.OccupancyConfig.early_stop`)."""
+
     def __init__(self, cfg):
         super().__init__()
         self.cfg, self.dim = cfg, cfg.dim
@@ -45,6 +49,7 @@ class TwinField(nn.Module):
 class NeRFField(TwinField):
     def __init__(self, cfg: NeRFConfig):
         super().__init__(cfg)
+        self.traceable = cfg.mode == "coopvec"
         shapes = {name: (i, o) for name, o, i in layer_shapes(cfg)}        # nn.Linear(in, out)
         self.trunk = nn.ModuleList(nn.Linear(*shapes[f"trunk.{k}"]) for k in range(cfg.depth))
         self.sigma = nn.Linear(*shapes["sigma"])

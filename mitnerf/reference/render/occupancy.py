@@ -56,8 +56,9 @@ class OccupancyGrid:
 
 
 def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int, seed: int, jitter: bool,
-                     space: Space = Space()) -> Explicit:
-    """Twin of ``OccupiedSampler.build``: ``origins, directions [n_rays, D]``."""
+                     space: Space = Space(), density=None, early_stop: float = 0.0) -> Explicit:
+    """Twin of ``OccupiedSampler.build``: ``origins, directions [n_rays, D]``; ``density(x [m, D]) -> [m]``, the
+    field's, with ``early_stop`` (``OccupiedSampler.early_stop``)."""
     bins = grid.cfg.march_bins
     n_rays = origins.shape[0]
     near, far = column(near).expand(n_rays, 1), column(far).expand(n_rays, 1)
@@ -71,6 +72,14 @@ def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int
     x = warp(space, x, directions[:, None, :].expand_as(x))[0]
     cell, inside = cell_index(x.reshape(-1, origins.shape[1]), grid.bound, grid.cfg.resolution)
     occ = (inside & (grid.occupied[cell] > 0.5)).reshape(n_rays, bins)
+    if density is not None and early_stop > 0.0:       # the bins a march takes while its transmittance lasts
+        edges = torch.arange(bins + 1, dtype=torch.float32)
+        at_edges = near + edges * dt if space.knee is None else at(edges, lo, hi)
+        width = at_edges[:, 1:] - at_edges[:, :-1]
+        with torch.no_grad():
+            sigma = density(x.reshape(-1, origins.shape[1])).reshape(n_rays, bins)
+        tau = torch.cumsum(torch.where(occ, sigma.clamp(min=0.0) * width, 0.0), 1)
+        occ = occ & (tau - torch.where(occ, sigma.clamp(min=0.0) * width, 0.0) < float(-np.log(early_stop)))
     K = occ.sum(1, keepdim=True)
     stride = torch.clamp((K + (n - 1)) // n, min=1)
     rank = torch.cumsum(occ.long(), 1) - occ.long()                               # occupied bins before

@@ -44,8 +44,10 @@ class Model(nn.Module, FieldSet):
         n = origins.shape[0]
         f = 1 if training else cfg.render_oversample             # render_oversample: as the Dr.Jit pipeline's
         if occupancy is not None and cfg.occupancy.enabled:
+            coarse = self.fields["coarse"]
             sampler = occupied_samples(occupancy, origins, directions, near, far, cfg.n_coarse * f, seed, training,
-                                       space)
+                                       space, density=coarse.density,
+                                       early_stop=cfg.occupancy.early_stop if training and coarse.traceable else 0.0)
         else:
             sampler = Stratified(cfg.n_coarse * f, seed, jitter=training, knee=space.knee)
         kw = dict(w_min=cfg.min_color_weight, space=space)
