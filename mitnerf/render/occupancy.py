@@ -205,7 +205,8 @@ class OccupiedSampler:
             def count_body(k, count, tau):
                 occ, x = self._bin_occupied(origins, directions, ray, k, near_r, far_r, points=True)
                 width = self._at(Float(k + 1), near_r, far_r) - self._at(Float(k), near_r, far_r)
-                sigma = dr.select(occ, dr.detach(self.density(x)), 0.0)
+                sigma = dr.if_stmt((x,), occ, lambda x: dr.detach(self.density(x)),     # gathers of occupied bins
+                                   lambda x: dr.zeros(Float, dr.width(x[0])), label="early_stop")
                 return k + 1, count + dr.select(occ, 1, 0), tau + dr.maximum(sigma, 0.0) * width
 
             end, K, _ = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays), dr.zeros(Float, n_rays)),
