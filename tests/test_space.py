@@ -217,3 +217,14 @@ def test_the_occupancy_sampler_follows_rays_out_of_the_world_box_in_contracted_s
                             8, 3, False, space)
     np.testing.assert_allclose(np.asarray(got.t_flat), twin.t.numpy().ravel(), rtol=1e-5)
     assert np.asarray(got.delta_flat).sum() == pytest.approx(99.5, rel=1e-4)   # far - near: the whole ray
+    # early stop in the warped space, the field's density 1 there stretched per unit of distance as rendered (by
+    # 1 / t^2 past the knee): optical depth 0.5 + (1 - 1 / t) from near 0.5, which reaches -ln 0.3 = 1.20 at
+    # t = 3.3 (unstretched, at t = 1.7): the samples end in the bin around 3.3, in both engines alike
+    got = OccupiedSampler(*grid.lookup, 8, 16, 2.0, 4, UInt32(3), jitter=False, space=space, early_stop=0.3,
+                          density=lambda x: 1.0 + 0.0 * x[0]).build(o, d, 0.5, 100.0)
+    twin = occupied_samples(TwinGrid(cfg, 3, 2.0), torch.zeros(1, 3), torch.tensor([[1.0, 0.0, 0.0]]), 0.5, 100.0,
+                            8, 3, False, space, density=lambda x: torch.ones(x.shape[0]), early_stop=0.3)
+    ends = (np.asarray(got.t_flat) + np.asarray(got.delta_flat))[np.asarray(got.delta_flat) > 0]
+    assert 3.3 < ends.max() < 10.0
+    np.testing.assert_allclose(np.asarray(got.t_flat), twin.t.numpy().ravel(), rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(got.delta_flat), twin.delta.numpy().ravel(), rtol=1e-5)

@@ -137,8 +137,9 @@ class OccupiedSampler:
     jitter: bool = True
     space: Space = Space()
     density: object = None
-    """``density(x) -> Float``, the field's detached density at points ``x`` (the grid's space), with
-    :attr:`early_stop`: where the march may end; None: at the last occupied bin."""
+    """``density(x) -> Float``, the field's detached density at points ``x`` (the grid's space; in a warped space
+    stretched into density per unit of distance, as the renderer does), with :attr:`early_stop`: where the march
+    may end; None: at the last occupied bin."""
     early_stop: float = 0.0
     """Transmittance at which the occupied bins end (:attr:`OccupancyConfig.early_stop`)."""
     grouped: bool = False
@@ -157,11 +158,12 @@ class OccupiedSampler:
         t = self._at(Float(k) + 0.5, near, far)
         d = [dr.gather(Float, di, ray) for di in directions]
         x = [dr.gather(Float, o, ray) + t * di for o, di in zip(origins, d)]
+        stretch = 1.0
         if self.space.warped:
-            x = self.space.warp(x, d, DRJIT)[0]
+            x, stretch = self.space.warp(x, d, DRJIT)
         cell, inside = cell_index(x, self.bound, self.resolution)
         occ = inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
-        return (occ, x) if points else occ
+        return (occ, x, stretch) if points else occ
 
     def _bins(self, origins: list, directions: list, near: Float, dt: Float) -> tuple[UInt32, UInt32]:
         """Per ray, the first and one past the last bin that can be occupied: those whose centres lie in the
@@ -203,8 +205,8 @@ class OccupiedSampler:
             tau_end = float(-np.log(self.early_stop))
 
             def count_body(k, count, tau):
-                occ, x = self._bin_occupied(origins, directions, ray, k, near_r, far_r, points=True)
-                width = self._at(Float(k + 1), near_r, far_r) - self._at(Float(k), near_r, far_r)
+                occ, x, stretch = self._bin_occupied(origins, directions, ray, k, near_r, far_r, points=True)
+                width = (self._at(Float(k + 1), near_r, far_r) - self._at(Float(k), near_r, far_r)) * stretch
                 sigma = dr.if_stmt((x,), occ, lambda x: dr.detach(self.density(x)),     # gathers of occupied bins
                                    lambda x: dr.zeros(Float, dr.width(x[0])), label="early_stop")
                 return k + 1, count + dr.select(occ, 1, 0), tau + dr.maximum(sigma, 0.0) * width

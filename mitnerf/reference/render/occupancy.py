@@ -69,17 +69,18 @@ def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int
     mid = torch.arange(bins, dtype=torch.float32) + 0.5
     t_mid = near + mid * dt if space.knee is None else at(mid, lo, hi)                       # [n_rays, M]
     x = origins[:, None, :] + t_mid[..., None] * directions[:, None, :]
-    x = warp(space, x, directions[:, None, :].expand_as(x))[0]
+    x, stretch = warp(space, x, directions[:, None, :].expand_as(x))
     cell, inside = cell_index(x.reshape(-1, origins.shape[1]), grid.bound, grid.cfg.resolution)
     occ = (inside & (grid.occupied[cell] > 0.5)).reshape(n_rays, bins)
     if density is not None and early_stop > 0.0:       # the bins a march takes while its transmittance lasts
         edges = torch.arange(bins + 1, dtype=torch.float32)
         at_edges = near + edges * dt if space.knee is None else at(edges, lo, hi)
         width = at_edges[:, 1:] - at_edges[:, :-1]
+        width = width if stretch is None else width * stretch      # density per unit of distance, as rendered
         with torch.no_grad():
             sigma = density(x.reshape(-1, origins.shape[1])).reshape(n_rays, bins)
-        tau = torch.cumsum(torch.where(occ, sigma.clamp(min=0.0) * width, 0.0), 1)
-        occ = occ & (tau - torch.where(occ, sigma.clamp(min=0.0) * width, 0.0) < float(-np.log(early_stop)))
+        depth = torch.where(occ, sigma.clamp(min=0.0) * width, 0.0)                  # each bin's optical depth
+        occ = occ & (torch.cumsum(depth, 1) - depth < float(-np.log(early_stop)))      # the depth in front of it
     K = occ.sum(1, keepdim=True)
     stride = torch.clamp((K + (n - 1)) // n, min=1)
     rank = torch.cumsum(occ.long(), 1) - occ.long()                               # occupied bins before
