@@ -7,9 +7,11 @@ at a jittered point in it and keeps ``value = max(decay * value, measured)``; a 
 The sampler looks the centres of ``M = march_bins`` equal bins of ``[near, far]`` up in the grid. Of a
 ray's ``K`` occupied bins, every ``stride = ceil(K / N)``-th starts a group: one jittered sample in that
 bin stands for the group's ``stride * dt`` (the last group: the bins left). Unused slots get ``delta = 0``;
-the count stays ``N``, so the step can be frozen, and the integral stops at each ray's last used slot. Only the
-bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked up: the
-others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene (:mod:`.space`) the
+the count stays ``N``, so the step can be frozen, and the integral stops at each ray's last used slot. With an
+early stop (:attr:`OccupancyConfig.early_stop`, in training) a ray's occupied bins end where the optical depth of
+those in front, by the field's density at their centres, reaches ``-ln(early_stop)``: ``K`` counts only those.
+Only the bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked
+up: the others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene (:mod:`.space`) the
 grid covers the warped space the fields live in, the bins are even in the samples' spacing (:func:`.space.to_s`) and
 every bin is looked up (rays curve there: no box bounds them).
 Twin: :mod:`mitnerf.reference.render.occupancy`.
@@ -18,6 +20,7 @@ Twin: :mod:`mitnerf.reference.render.occupancy`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import drjit as dr
 import numpy as np
@@ -136,7 +139,7 @@ class OccupiedSampler:
     seed: UInt32
     jitter: bool = True
     space: Space = Space()
-    density: object = None
+    density: Callable[[list], Float] | None = None
     """``density(x) -> Float``, the field's detached density at points ``x`` (the grid's space; in a warped space
     stretched into density per unit of distance, as the renderer does), with :attr:`early_stop`: where the march
     may end; None: at the last occupied bin."""
