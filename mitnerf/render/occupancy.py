@@ -11,9 +11,9 @@ the count stays ``N``, so the step can be frozen, and the integral stops at each
 early stop (:attr:`OccupancyConfig.early_stop`, in training) a ray's occupied bins end where the optical depth of
 those in front, by the field's density at their centres, reaches ``-ln(early_stop)``: ``K`` counts only those.
 Only the bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked
-up: the others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene (:mod:`.space`) the
-grid covers the warped space the fields live in, the bins are even in the samples' spacing (:func:`.space.to_s`) and
-every bin is looked up (rays curve there: no box bounds them).
+up: the others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene
+(:mod:`.space`) the grid covers the warped space the fields live in, the bins are even in the samples' spacing
+(:func:`.space.to_s`) and every bin is looked up (rays curve there: no box bounds them).
 Twin: :mod:`mitnerf.reference.render.occupancy`.
 """
 
