@@ -157,7 +157,15 @@ class OccupiedSampler:
         lo, hi = (to_s(v, knee, dr.select) for v in (near, far))
         return to_t(lo + k * ((hi - lo) * (1.0 / self.bins)), knee, dr.select)
 
-    def _bin_occupied(self, origins, directions, ray, k, near, far, points: bool = False):
+    def _span(self, k: UInt32, n, near: Float, far: Float, dt: Float) -> Float:
+        """Length of the ``n`` bins from bin ``k`` along ``[near, far]`` (``dt``: a bin's, where they are even)."""
+        if self.space.knee is None:
+            return Float(n) * dt
+        return self._at(Float(k + n), near, far) - self._at(Float(k), near, far)
+
+    def _bin_occupied(self, origins, directions, ray, k, near, far):
+        """Whether bin ``k``'s centre is in an occupied cell; that centre in the grid's space; the density stretch
+        there (1 where nothing is warped)."""
         t = self._at(Float(k) + 0.5, near, far)
         d = [dr.gather(Float, di, ray) for di in directions]
         x = [dr.gather(Float, o, ray) + t * di for o, di in zip(origins, d)]
@@ -166,7 +174,7 @@ class OccupiedSampler:
             x, stretch = self.space.warp(x, d, DRJIT)
         cell, inside = cell_index(x, self.bound, self.resolution)
         occ = inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
-        return (occ, x, stretch) if points else occ
+        return occ, x, stretch
 
     def _bins(self, origins: list, directions: list, near: Float, dt: Float) -> tuple[UInt32, UInt32]:
         """Per ray, the first and one past the last bin that can be occupied: those whose centres lie in the
@@ -199,7 +207,7 @@ class OccupiedSampler:
 
         if self.density is None or self.early_stop <= 0.0:
             def count_body(k, count):
-                occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
+                occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)[0]
                 return k + 1, count + dr.select(occ, 1, 0)
 
             _, K = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, c: k < end, count_body,
@@ -208,8 +216,8 @@ class OccupiedSampler:
             tau_end = float(-np.log(self.early_stop))
 
             def count_body(k, count, tau):
-                occ, x, stretch = self._bin_occupied(origins, directions, ray, k, near_r, far_r, points=True)
-                width = (self._at(Float(k + 1), near_r, far_r) - self._at(Float(k), near_r, far_r)) * stretch
+                occ, x, stretch = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
+                width = self._span(k, 1, near_r, far_r, dt) * stretch
                 sigma = dr.if_stmt((x,), occ, lambda x: dr.detach(self.density(x)),     # gathers of occupied bins
                                    lambda x: dr.zeros(Float, dr.width(x[0])), label="early_stop")
                 return k + 1, count + dr.select(occ, 1, 0), tau + dr.maximum(sigma, 0.0) * width
@@ -224,16 +232,12 @@ class OccupiedSampler:
         d_out = dr.zeros(Float, n_rays * self.n)
 
         def place_body(k, rank):
-            occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
+            occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)[0]
             j = rank // stride
             take = occ & (rank % stride == 0) & (j < self.n)
             u = uniform(self.seed, ray, k) if self.jitter else Float(0.5)
             group = dr.minimum(stride, K - rank)            # the last group may hold fewer bins
-            if self.space.knee is None:
-                t, delta = near_r + (Float(k) + u) * dt, Float(group) * dt
-            else:
-                t = self._at(Float(k) + u, near_r, far_r)
-                delta = self._at(Float(k + group), near_r, far_r) - self._at(Float(k), near_r, far_r)
+            t, delta = self._at(Float(k) + u, near_r, far_r), self._span(k, group, near_r, far_r, dt)
             dr.scatter(t_out, t, ray * self.n + j, take)
             dr.scatter(d_out, delta, ray * self.n + j, take)
             return k + 1, rank + dr.select(occ, 1, 0)

@@ -176,12 +176,15 @@ class Model(FieldSet):
         if occupancy is None or not cfg.occupancy.enabled:
             sampler = Stratified(n_coarse, seed, jitter=training, knee=space.knee)
         else:
-            coarse, p = self.fields["coarse"], {k: dr.detach(v) for k, v in split_params(params, "coarse").items()}
+            coarse = self.fields["coarse"]
+            early_stop = cfg.occupancy.early_stop if training and coarse.traceable else 0.0
+            density = None
+            if early_stop > 0.0:
+                p = {k: dr.detach(v) for k, v in split_params(params, "coarse").items()}
+                density = lambda x: coarse.density(p, x)                                    # noqa: E731
             sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins, coarse.bound,
-                                      cfg.occupancy.resolution, seed, jitter=training, space=space,
-                                      density=lambda x: coarse.density(p, x),
-                                      early_stop=cfg.occupancy.early_stop if training and coarse.traceable else 0.0,
-                                      grouped=training).build(origins, directions, near, far)
+                                      cfg.occupancy.resolution, seed, jitter=training, space=space, density=density,
+                                      early_stop=early_stop, grouped=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
                   stop=0.0 if training else cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,

@@ -14,8 +14,8 @@ from .mlp import TwinField, density_activation
 class HashGridField(TwinField):
     def __init__(self, cfg: HashGridConfig):
         super().__init__(cfg)
-        self.traceable = cfg.mode == "coopvec"
         twin = _DrJitField(cfg)                      # the layout and layer shapes
+        self.traceable = twin.traceable
         self.layout = twin.layout
         self.table = nn.Parameter(torch.zeros(twin.n_table))
         shapes = {name: (i, o) for name, o, i in twin.shapes}        # nn.Linear(in, out)

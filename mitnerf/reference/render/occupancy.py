@@ -73,9 +73,11 @@ def occupied_samples(grid: OccupancyGrid, origins, directions, near, far, n: int
     cell, inside = cell_index(x.reshape(-1, origins.shape[1]), grid.bound, grid.cfg.resolution)
     occ = (inside & (grid.occupied[cell] > 0.5)).reshape(n_rays, bins)
     if density is not None and early_stop > 0.0:       # the bins a march takes while its transmittance lasts
-        edges = torch.arange(bins + 1, dtype=torch.float32)
-        at_edges = near + edges * dt if space.knee is None else at(edges, lo, hi)
-        width = at_edges[:, 1:] - at_edges[:, :-1]
+        if space.knee is None:
+            width = dt
+        else:
+            edges = at(torch.arange(bins + 1, dtype=torch.float32), lo, hi)
+            width = edges[:, 1:] - edges[:, :-1]
         width = width if stretch is None else width * stretch      # density per unit of distance, as rendered
         with torch.no_grad():
             sigma = density(x.reshape(-1, origins.shape[1])).reshape(n_rays, bins)
