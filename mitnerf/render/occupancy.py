@@ -10,8 +10,10 @@ bin stands for the group's ``stride * dt`` (the last group: the bins left). Unus
 the count stays ``N``, so the step can be frozen, and the integral stops at each ray's last used slot. With an
 early stop (:attr:`OccupancyConfig.early_stop`, in training) a ray's occupied bins end where the optical depth of
 those in front, by the field's density at their centres, reaches ``-ln(early_stop)``: ``K`` counts only those.
-Only the bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked
-up: the others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene
+Without it, one pass over the bins counts them and places the samples of every ray with ``K <= N`` (stride 1);
+only the rays with more occupied bins than slots pass again (the renders' time: ``benchmarks/lego.py``). Only
+the bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked up:
+the others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene
 (:mod:`.space`) the grid covers the warped space the fields live in, the bins are even in the samples' spacing
 (:func:`.space.to_s`) and every bin is looked up (rays curve there: no box bounds them).
 Twin: :mod:`mitnerf.reference.render.occupancy`.
@@ -28,6 +30,7 @@ from drjit.auto.ad import Float, UInt32
 
 from ..settings import setting
 from ..rng import uniform
+from .integral import in_lanes
 from .samplers import Explicit, grouped, per_sample
 from .space import DRJIT, Space, to_s, to_t
 
@@ -163,12 +166,11 @@ class OccupiedSampler:
             return Float(n) * dt
         return self._at(Float(k + n), near, far) - self._at(Float(k), near, far)
 
-    def _bin_occupied(self, origins, directions, ray, k, near, far):
-        """Whether bin ``k``'s centre is in an occupied cell; that centre in the grid's space; the density stretch
-        there (1 where nothing is warped)."""
+    def _bin_occupied(self, o: list, d: list, k, near, far):
+        """Whether bin ``k``'s centre on the lanes' rays ``o + t d`` is in an occupied cell; that centre in the
+        grid's space; the density stretch there (1 where nothing is warped)."""
         t = self._at(Float(k) + 0.5, near, far)
-        d = [dr.gather(Float, di, ray) for di in directions]
-        x = [dr.gather(Float, o, ray) + t * di for o, di in zip(origins, d)]
+        x = [oi + t * di for oi, di in zip(o, d)]
         stretch = 1.0
         if self.space.warped:
             x, stretch = self.space.warp(x, d, DRJIT)
@@ -190,6 +192,39 @@ class OccupiedSampler:
         last = dr.clip(dr.ceil((t_out - near) / dt) + 1.0, 0.0, self.bins)
         return UInt32(first), UInt32(dr.select(t_in <= t_out, last, first))
 
+    def _place(self, lanes: tuple, end: UInt32, K: UInt32 | None, *, clear: bool) -> UInt32:
+        """Place the samples of the lanes' bins ``[first, end)``: given their ``K`` occupied bins, one per group of
+        ``stride = ceil(K / n)``, and with ``clear`` the slots past the groups (which a first pass filled) emptied
+        again; without ``K`` (None), one in each of the first ``n`` occupied bins. Returns the occupied bins
+        passed."""
+        o, d, ray, first, near_r, far_r, dt, t_out, d_out = lanes
+        if K is None:
+            stride = groups = None
+        else:
+            stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
+            groups = (K + stride - 1) // stride
+
+        def place_body(k, rank):
+            occ = self._bin_occupied(o, d, k, near_r, far_r)[0]
+            j = rank if stride is None else rank // stride
+            take = occ & (j < self.n)
+            if stride is not None:
+                take &= rank % stride == 0
+            u = uniform(self.seed, ray, k) if self.jitter else Float(0.5)
+            group = 1 if stride is None else dr.minimum(stride, K - rank)      # the last group may hold fewer
+            t, delta = self._at(Float(k) + u, near_r, far_r), self._span(k, group, near_r, far_r, dt)
+            dr.scatter(t_out, t, ray * self.n + j, take)
+            dr.scatter(d_out, delta, ray * self.n + j, take)
+            if clear:               # K > n: more bins than slots, so each bin visited can empty one slot
+                c = groups + (k - first)
+                dr.scatter(t_out, far_r, ray * self.n + c, c < self.n)
+                dr.scatter(d_out, 0.0, ray * self.n + c, c < self.n)
+            return k + 1, rank + dr.select(occ, 1, 0)
+
+        _, rank = dr.while_loop((UInt32(first), dr.zeros(UInt32, dr.width(ray))), lambda k, r: k < end, place_body,
+                                label="occupancy_place")
+        return rank
+
     def build(self, origins: list, directions: list, near, far) -> Explicit:
         """Place the samples of every ray: an :class:`~.samplers.Explicit` with intervals and a count."""
         n_rays = dr.width(origins[0])
@@ -200,23 +235,29 @@ class OccupiedSampler:
             first, end = dr.zeros(UInt32, n_rays), dr.full(UInt32, self.bins, n_rays)
         else:
             first, end = self._bins(origins, directions, near_r, dt)
+        order = None
         if self.grouped and not self.space.warped:
-            ray = grouped(end - first, self.bins)       # lane -> ray
+            ray = order = grouped(end - first, self.bins)       # lane -> ray
             first, end = dr.gather(UInt32, first, ray), dr.gather(UInt32, end, ray)
             near_r, far_r, dt = (per_sample(v, ray) for v in (near_r, far_r, dt))
 
+        # unused slots: t = far, delta = 0 (no contribution)
+        t_out = dr.gather(Float, per_sample(Float(far), dr.arange(UInt32, n_rays)),
+                          dr.arange(UInt32, n_rays * self.n) // self.n)
+        d_out = dr.zeros(Float, n_rays * self.n)
+        o, d = in_lanes(origins, order), in_lanes(directions, order)      # the lanes' rays, gathered once
+        lanes = (o, d, ray, first, near_r, far_r, dt, t_out, d_out)
         if self.density is None or self.early_stop <= 0.0:
-            def count_body(k, count):
-                occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)[0]
-                return k + 1, count + dr.select(occ, 1, 0)
-
-            _, K = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, c: k < end, count_body,
-                                 label="occupancy_count")
+            # one pass places a sample in each of the first n occupied bins while it counts them: every ray with
+            # at most n (stride 1); the others are placed again, grouped
+            K = self._place(lanes, end, None, clear=False)
+            dr.eval(K)                                  # else the second pass's kernel runs the first pass again
+            self._place(lanes, dr.select(K > self.n, end, first), K, clear=True)
         else:
             tau_end = float(-np.log(self.early_stop))
 
             def count_body(k, count, tau):
-                occ, x, stretch = self._bin_occupied(origins, directions, ray, k, near_r, far_r)
+                occ, x, stretch = self._bin_occupied(o, d, k, near_r, far_r)
                 width = self._span(k, 1, near_r, far_r, dt) * stretch
                 sigma = dr.if_stmt((x,), occ, lambda x: dr.detach(self.density(x)),     # gathers of occupied bins
                                    lambda x: dr.zeros(Float, dr.width(x[0])), label="early_stop")
@@ -225,25 +266,8 @@ class OccupiedSampler:
             end, K, _ = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays), dr.zeros(Float, n_rays)),
                                       lambda k, c, tau: (k < end) & (tau < tau_end), count_body,
                                       label="occupancy_count")
+            self._place(lanes, end, K, clear=False)
         stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
-        # unused slots: t = far, delta = 0 (no contribution)
-        t_out = dr.gather(Float, per_sample(Float(far), dr.arange(UInt32, n_rays)),
-                          dr.arange(UInt32, n_rays * self.n) // self.n)
-        d_out = dr.zeros(Float, n_rays * self.n)
-
-        def place_body(k, rank):
-            occ = self._bin_occupied(origins, directions, ray, k, near_r, far_r)[0]
-            j = rank // stride
-            take = occ & (rank % stride == 0) & (j < self.n)
-            u = uniform(self.seed, ray, k) if self.jitter else Float(0.5)
-            group = dr.minimum(stride, K - rank)            # the last group may hold fewer bins
-            t, delta = self._at(Float(k) + u, near_r, far_r), self._span(k, group, near_r, far_r, dt)
-            dr.scatter(t_out, t, ray * self.n + j, take)
-            dr.scatter(d_out, delta, ray * self.n + j, take)
-            return k + 1, rank + dr.select(occ, 1, 0)
-
-        dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays)), lambda k, r: k < end, place_body,
-                      label="occupancy_place")
         count = dr.zeros(UInt32, n_rays)
         dr.scatter(count, (K + stride - 1) // stride, ray, mode=dr.ReduceMode.Permute)
         return Explicit(t_out, self.n, d_out, count)
