@@ -118,6 +118,23 @@ def test_a_grid_step_with_total_variation_never_copies_the_colour_gradient(vase_
     assert not [k for k in kernels if k["type"] == dr.KernelType.Memcpy and k["size"] == colour]
 
 
+def test_a_model_past_the_freeze_limit_is_traced_each_step_and_trains_alike(bunny_small, monkeypatch):
+    """Past ``FREEZE_MAX_PARAMS`` parameters a step is traced anew each time, not replayed; the losses are the same
+    (one thread: the sums are deterministic)."""
+    from mitnerf.train import backend_drjit
+
+    recipe = small("grid-2d", threads=1)
+    ds = bunny_small
+    curves = []
+    for limit in (1 << 30, 0):
+        monkeypatch.setattr(backend_drjit, "FREEZE_MAX_PARAMS", limit)
+        be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
+        be.set_data(ds["train"].rays((0, 0, 0), **recipe.train.ray_args()))
+        assert be.replayed == (limit > 0)
+        curves.append([be.read(be.step(k, step_seed(0, k), 0.02))[0] for k in range(5)])
+    np.testing.assert_allclose(curves[0], curves[1], rtol=1e-6)
+
+
 def test_training_goes_on_as_before_after_the_engine_gives_back_its_memory(bunny_small):
     """``release()`` between steps (fit calls it when training ends; a step after it allocates again) changes no
     loss: one thread, so the sums are deterministic."""

@@ -1,6 +1,6 @@
 """The Dr.Jit engine: ``drjit.opt.Adam`` and one step (batch, render, loss, backward, Adam) recorded
-once with ``dr.freeze`` (:func:`mitnerf._drjit_compat.freeze`) and replayed; values that change between steps
-enter as opaque arrays."""
+once with ``dr.freeze`` (:func:`mitnerf._drjit_compat.freeze`) and replayed, up to :data:`FREEZE_MAX_PARAMS`
+parameters; values that change between steps enter as opaque arrays."""
 
 from __future__ import annotations
 
@@ -22,6 +22,11 @@ def columns(a: np.ndarray) -> list:
     """``[n, C]`` numpy -> C Dr.Jit arrays ``[n]``."""
     return [Float(np.ascontiguousarray(c, dtype=np.float32)) for c in np.asarray(a).T]
 
+
+FREEZE_MAX_PARAMS = 1 << 24
+"""Parameters above which a step is traced anew each time rather than replayed: a replay zero-fills and then copies
+each parameter's gradient, passes over memory (and a peak) that a traced step does not have (Dr.Jit 1.5); past
+about 16 M parameters they cost more than tracing the step does (the lego's grid: ``benchmarks/lego.py``)."""
 
 CHECK_EVERY = 16
 """Steps between the checks that every parameter is finite: a non-finite gradient makes its parameter so in Adam's
@@ -54,6 +59,9 @@ class DrJitBackend(Backend):
         step given fresh arrays each time is recorded again and again while earlier steps are in flight."""
         self._reads = 0
         """Steps read so far (:meth:`read` checks the parameters every :data:`CHECK_EVERY`-th)."""
+        self.replayed = False
+        """Whether the step is recorded once and replayed (``dr.freeze``), not traced each time
+        (:data:`FREEZE_MAX_PARAMS`); set with each new step."""
         self._frozen = self._new_step()
 
     @property
@@ -117,7 +125,9 @@ class DrJitBackend(Backend):
             final = outs["fine"] if outs.get("fine") is not None else outs["coarse"]
             return loss, losses.rms_error(final.rgb, data["target"])
 
-        return freeze(step) if cfg.freeze and all(f.freezable for f in model.fields.values()) else step
+        self.replayed = (cfg.freeze and all(f.freezable for f in model.fields.values())
+                         and self.n_params() <= FREEZE_MAX_PARAMS)
+        return freeze(step) if self.replayed else step
 
     def step(self, index: int, seed: int, lr: float):
         new = self.model.schedule(index, self.params)

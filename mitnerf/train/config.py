@@ -120,7 +120,9 @@ class TrainConfig:
     threads: int = setting(2, lo=1, hi=1024, flag="--threads")
     """CPU threads (Dr.Jit and torch)."""
     freeze: bool = setting(True)
-    """Record the Dr.Jit step once and replay it (``dr.freeze``); off only for debugging."""
+    """Record the Dr.Jit step once and replay it (``dr.freeze``) while the model has at most
+    :data:`~mitnerf.train.backend_drjit.FREEZE_MAX_PARAMS` parameters (past that, a replay costs more than tracing);
+    off only for debugging."""
     progress: bool = setting(True, flag="--progress")
     """Show a progress bar."""
 
