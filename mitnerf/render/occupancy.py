@@ -192,17 +192,19 @@ class OccupiedSampler:
         last = dr.clip(dr.ceil((t_out - near) / dt) + 1.0, 0.0, self.bins)
         return UInt32(first), UInt32(dr.select(t_in <= t_out, last, first))
 
+    def _groups(self, K: UInt32) -> tuple[UInt32, UInt32]:
+        """``(stride, groups)`` of rays with ``K`` occupied bins: ``stride = ceil(K / n)`` bins a sample, and the
+        samples (slots used) that makes."""
+        stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
+        return stride, (K + stride - 1) // stride
+
     def _place(self, lanes: tuple, end: UInt32, K: UInt32 | None, *, clear: bool) -> UInt32:
         """Place the samples of the lanes' bins ``[first, end)``: given their ``K`` occupied bins, one per group of
         ``stride = ceil(K / n)``, and with ``clear`` the slots past the groups (which a first pass filled) emptied
         again; without ``K`` (None), one in each of the first ``n`` occupied bins. Returns the occupied bins
         passed."""
         o, d, ray, first, near_r, far_r, dt, t_out, d_out = lanes
-        if K is None:
-            stride = groups = None
-        else:
-            stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
-            groups = (K + stride - 1) // stride
+        stride, groups = (None, None) if K is None else self._groups(K)
 
         def place_body(k, rank):
             occ = self._bin_occupied(o, d, k, near_r, far_r)[0]
@@ -267,7 +269,6 @@ class OccupiedSampler:
                                       lambda k, c, tau: (k < end) & (tau < tau_end), count_body,
                                       label="occupancy_count")
             self._place(lanes, end, K, clear=False)
-        stride = dr.maximum((K + (self.n - 1)) // self.n, 1)
         count = dr.zeros(UInt32, n_rays)
-        dr.scatter(count, (K + stride - 1) // stride, ray, mode=dr.ReduceMode.Permute)
+        dr.scatter(count, self._groups(K)[1], ray, mode=dr.ReduceMode.Permute)
         return Explicit(t_out, self.n, d_out, count)
