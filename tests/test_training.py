@@ -135,6 +135,31 @@ def test_a_model_past_the_freeze_limit_is_traced_each_step_and_trains_alike(bunn
     np.testing.assert_allclose(curves[0], curves[1], rtol=1e-6)
 
 
+def test_a_traced_step_compiles_nothing_after_its_first(bunny_small, monkeypatch):
+    """A step traced anew each time (past ``FREEZE_MAX_PARAMS``) finds every kernel in Dr.Jit's cache from the
+    third step on: what changes between steps (seed, learning rate, step, Adam's step count) enters as opaque
+    arrays, not as numbers baked into the kernels."""
+    import drjit as dr
+
+    from mitnerf.train import backend_drjit
+
+    monkeypatch.setattr(backend_drjit, "FREEZE_MAX_PARAMS", 0)
+    recipe = small("grid-2d")
+    ds = bunny_small
+    be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
+    be.set_data(ds["train"].rays((0, 0, 0), **recipe.train.ray_args()))
+    assert not be.replayed
+    for k in (0, 1):                    # the first steps differ (Adam's moments start as zeros)
+        be.read(be.step(k, step_seed(0, k), 0.02))
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history()
+        for k in (2, 3, 4):
+            be.read(be.step(k, step_seed(0, k), 0.02 / k))
+        dr.sync_thread()
+        kernels = [h for h in dr.kernel_history() if h["type"] == dr.KernelType.JIT]
+    assert kernels and all(h["cache_hit"] for h in kernels), [h["hash"] for h in kernels if not h["cache_hit"]]
+
+
 def test_training_goes_on_as_before_after_the_engine_gives_back_its_memory(bunny_small):
     """``release()`` between steps (fit calls it when training ends; a step after it allocates again) changes no
     loss: one thread, so the sums are deterministic."""

@@ -144,6 +144,8 @@ class DrJitBackend(Backend):
         dr.sync_thread()                # the steps in flight have read the last batch
         self._inputs.numpy()[:] = batch
         self.step_reached = index
+        for _, _, _, (t, *_) in self.opt.state.values():
+            dr.make_opaque(t)           # Adam's step count: a literal would be baked into every step's kernels
         out = self._frozen(self.opt, self._inputs, dr.opaque(UInt32, seed), dr.opaque(Float, lr),
                            dr.opaque(Float, index), occ.lookup if occ is not None else None)
         if isinstance(out, tuple):                  # mined: the rays' errors for the map (Backend.mined)
