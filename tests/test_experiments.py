@@ -115,3 +115,61 @@ def test_window_shop_additions_count_the_views_a_file_has(tmp_path, monkeypatch)
     assert rows["grid-3d recipe, 100 images"][0] == 100 and not any("200" in label for label in rows)
     assert rows["7"][1] == cfg.pe_window and rows["4"][1] == 0 and rows["fine pass, 25 images"][1] == 0
     assert rows["7, no frequency window"][1] == 0 and rows["fine pass, 5 images"][1] == cfg.pe_window
+
+
+def test_spread_views_takes_the_first_camera_then_the_farthest_from_those_taken():
+    """Farthest-point sampling of camera directions, worked by hand; ``pick=spread`` trains on those views and keeps
+    its own record in the results file."""
+    import numpy as np
+
+    from mitnerf.experiments import window_shop
+    from mitnerf.experiments.reproduction import record_suffix
+
+    # the docstring's: [1,0,0] first; [-1,0,0] opposite it (180 deg); then [0,1,0] (90 deg to both) over
+    # [0.9,0.1,0] (6 deg from the first)
+    assert window_shop.spread_views([[1, 0, 0], [0.9, 0.1, 0], [-1, 0, 0], [0, 1, 0]], 3).tolist() == [0, 2, 3]
+    a = np.radians(45 * np.arange(8))                     # a ring, 45 deg apart, at 3 units
+    ring = 3 * np.c_[np.cos(a), np.sin(a), np.zeros(8)]
+    # 0; 4 (180 deg); 2 and 6 are 90 deg from both, 2 the lower index; then 6 (90 deg), the rest are 45 deg away
+    assert window_shop.spread_views(ring, 4).tolist() == [0, 4, 2, 6]
+    assert window_shop.spread_views(ring, 20).tolist()[:2] == [0, 4] and len(window_shop.spread_views(ring, 20)) == 8
+    cfg = window_shop.quick()
+    assert record_suffix(cfg) == ""
+    cfg.pick, cfg.data = "spread", "../shared/data/tiny_nerf/tiny_lego_100.npz"
+    assert record_suffix(cfg) == "/tiny_lego_100-spread"
+    cfg.data = None
+    assert record_suffix(cfg) == "/spread"
+
+
+def test_window_shop_trains_on_the_views_it_picks(tmp_path, monkeypatch):
+    """``pick=first`` trains a 5-image row on the pool's first 5 photos; ``pick=spread`` on the 5 of
+    :func:`spread_views`, and its report says which."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from mitnerf.data.formats import save_dataset
+    from mitnerf.data.generate import make_dataset
+    from mitnerf.data.rig import RigConfig
+    from mitnerf.experiments import window_shop
+    from mitnerf.scenes.registry import get_scene
+
+    ds = make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=100, n_val=2, n_test=4, resolution=4), progress=False)
+    seen = []
+
+    def fake_row(data, recipe, labels, **_):             # no training: the cameras each row would train on
+        seen.append(data["train"].cameras.origins)
+        rec = SimpleNamespace(psnr=20.0, ssim=0.5, renders=None)
+        return {**labels, "psnr": 20.0}, SimpleNamespace(record=lambda *a, **k: rec), rec
+
+    monkeypatch.setattr(window_shop, "train_row", fake_row)
+    monkeypatch.setattr(window_shop, "_draw", lambda *a: None)
+    cfg = window_shop.quick()
+    cfg.data, cfg.combinations, cfg.additions = str(save_dataset(ds, tmp_path / "lego.npz", "tiny_nerf")), (7,), False
+    pool = window_shop.load_dataset(cfg.data)["train"].cameras.origins
+    for pick, expected in (("first", np.arange(5)), ("spread", window_shop.spread_views(pool[:100], 5))):
+        cfg.pick = pick
+        window_shop.run(cfg, tmp_path / pick)
+        np.testing.assert_array_equal(seen[-1], pool[expected])
+        assert window_shop.PICKED[pick] in (tmp_path / pick / "report.md").read_text()
+    assert not np.array_equal(seen[0], seen[1])

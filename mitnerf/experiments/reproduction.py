@@ -18,7 +18,7 @@ from ..viz.panels import series_figure
 from . import EXPERIMENTS
 from .claims import CLAIMS, SOURCES, claims_table, verdict
 from .report import markdown_table
-from .window_shop import tables
+from .window_shop import PICKED, tables
 
 REPRODUCE = ("pe", "depth", "pixelnerf", "window-shop")
 """The experiments that test the reports' claims (``mitnerf experiment all``)."""
@@ -62,11 +62,18 @@ def record(name: str, cfg, rows: list[dict], seconds: float, command: str, path:
     budget = BUDGETS[name](cfg) if name in BUDGETS else ""
     slim = [{k: v for k, v in r.items() if (k in KEEP or not isinstance(v, float))
              and k not in ("recipe", "params", "render_time")} for r in rows]
-    data = getattr(cfg, "data", None)                           # the experiment on a user's file: its own key
-    return record_result(f"experiment/{name}" + (f"/{Path(data).stem}" if data else ""),
+    return record_result(f"experiment/{name}" + record_suffix(cfg),
                          {"rows": slim, "wall_s": round(seconds, 1)},
                          f"{len(rows)} runs in {seconds / 60:.0f} min; " + ("; ".join(verdicts) or "no claims"),
                          command, path=path, budget=budget, config=dataclasses.asdict(cfg))
+
+
+def record_suffix(cfg) -> str:
+    """The record of an experiment on a user's file (``data``), or on views picked otherwise than the first N
+    (``pick``), has its own key, ``experiment/<name>/<file>[-<pick>]``, beside the record of the whole on our data."""
+    data, pick = getattr(cfg, "data", None), getattr(cfg, "pick", "first")
+    parts = ([Path(data).stem] if data else []) + ([pick] if pick != "first" else [])
+    return "/" + "-".join(parts) if parts else ""
 
 
 def runs_table(results: dict) -> str:
@@ -108,12 +115,17 @@ def document(results: dict, figure_name: str | None, command: str) -> str:
             for key in sorted(k for k in results if k.startswith("experiment/window-shop/")):
                 e, rows = results[key], results[key]["values"]["rows"]
                 table, additions = tables(rows)
-                parts += [f"### Table 2 on the report's own data: {key.rsplit('/', 1)[1]}\n",
+                config = e.get("config", {})
+                pick, own = config.get("pick", "first"), bool(config.get("data"))
+                where = f"the file's views ({PICKED[pick]})" if own else f"{PICKED[pick]} views of each object's pool"
+                scored = ("scored by the report's protocol (view 101) and on the held-out views" if own
+                          else "scored on each object's test orbit")
+                title = "the report's own data" if own else "our objects"
+                parts += [f"### Table 2 on {title}: {key.rsplit('/', 1)[1]}\n",
                           f"`{e['command']}` ({e.get('budget', '')}; {machine_line(e['machine'])}, {e['date']}). "
-                          "Trained on the file's first views, scored by the report's protocol (view 101) and on "
-                          "the held-out views.\n", table]
+                          f"Trained on {where}, {scored}.\n", table]
                 if any(not r["row"].isdigit() for r in rows):
-                    parts += ["\n" + additions + "\n\n(PSNR and SSIM on view 101.)"]
+                    parts += ["\n" + additions + ("\n\n(PSNR and SSIM on view 101.)" if own else "")]
     return "\n".join(parts)
 
 
