@@ -133,6 +133,7 @@ def test_spread_views_takes_the_first_camera_then_the_farthest_from_those_taken(
     # 0; 4 (180 deg); 2 and 6 are 90 deg from both, 2 the lower index; then 6 (90 deg), the rest are 45 deg away
     assert window_shop.spread_views(ring, 4).tolist() == [0, 4, 2, 6]
     assert window_shop.spread_views(ring, 20).tolist()[:2] == [0, 4] and len(window_shop.spread_views(ring, 20)) == 8
+    assert window_shop.spread_views(ring, 0).tolist() == [] and window_shop.spread_views(ring, 1).tolist() == [0]
     cfg = window_shop.quick()
     assert record_suffix(cfg) == ""
     cfg.pick, cfg.data = "spread", "../shared/data/tiny_nerf/tiny_lego_100.npz"

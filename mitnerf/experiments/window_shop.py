@@ -119,6 +119,8 @@ def spread_views(origins: np.ndarray, n: int) -> np.ndarray:
     u = np.asarray(origins, np.float64)
     u = u / np.linalg.norm(u, axis=1, keepdims=True)
     n = min(int(n), len(u))
+    if n < 1:
+        return np.zeros(0, np.int64)
     taken, nearest = [0], u @ u[0]                  # cosine of each camera's smallest angle to those taken
     for _ in range(n - 1):
         nearest[taken] = np.inf
