@@ -36,6 +36,10 @@ ARCHITECTURES = {"ours": dict(width=64, depth=4, skip=2, dir_L=1), "paper": dict
 """``ours``: the ``vanilla-3d`` recipe's MLP with one direction frequency; ``paper``: NeRF's (the report's)."""
 
 
+PICKED = {"first": "the first N", "spread": "N spread over the directions"}
+"""The choices of ``Config.pick``, in words."""
+
+
 @dataclass
 class Config:
     """The table's objects, budgets and architecture."""
@@ -49,7 +53,7 @@ class Config:
     """Photo width and height in pixels (the report's data: 100 x 100)."""
     pool_views: int = setting(200, lo=1, hi=100_000)
     """Photos rendered per object; a run with N images uses N of them (``pick``)."""
-    pick: str = setting("first", choices=("first", "spread"))
+    pick: str = setting("first", choices=tuple(PICKED))
     """Which N photos of the pool a row with N images trains on: ``first``, the pool's first N (the order they were
     taken or rendered in); ``spread``, N far apart (:func:`spread_views`: the first photo, then each time the one
     whose camera sees the object from furthest from those taken), the report's "5 images from different angles"
@@ -103,10 +107,6 @@ def nerf_recipe(cfg: Config, images: int, L: int, n_coarse: int, vd: bool, n_fin
     return _recipe("vanilla-3d", cfg, steps, **{**ARCHITECTURES[cfg.architecture], **arch}, pos_L=L,
                    n_coarse=n_coarse, n_fine=n_fine, view_dependent=vd, iters=steps * cfg.iters,
                    batch_rays=cfg.batch_rays)
-
-
-PICKED = {"first": "the first N", "spread": "N spread over the directions"}
-"""``Config.pick`` in words."""
 
 
 def spread_views(origins: np.ndarray, n: int) -> np.ndarray:
