@@ -26,14 +26,12 @@ part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly,
 ``uniform-hour`` (``lego/uniform/3600``) the same beside part ``3600``. Part ``samples128`` (``lego/samples128/3600``)
 runs part ``3600``'s command with ``--set n_coarse=128``: twice the samples a ray, so fewer steps in the hour; part
 ``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part
-``800``'s. A budget of half an hour or more sizes a finer lattice (``Sizing.cap``); part ``800-hour``
-(``lego800/hour``) trains that lattice at 800 x 800 for :data:`BUDGET_800` seconds: the memory and evaluation time
-of the held-back 800 x 800 hour. Run each beside its default in one session: the pair is measured on one machine.
+``800``'s. Run each beside its default in one session: the pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
     python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform uniform-hour samples128
-                               800-samples128 800-hour]
+                               800-samples128]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -52,7 +50,7 @@ else:                                  # run as python benchmarks/lego.py
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
 PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform", "uniform-hour", "samples128",
-         "800-samples128", "800-hour")
+         "800-samples128")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
@@ -68,10 +66,8 @@ grey view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: 
 the rays), against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part
 ``3600``'s."""
 UPSAMPLED = {"800": ("lego800/upsampled", ()),
-             "800-samples128": ("lego800/samples128", ("--set", VARIANTS["samples128"][2])),
-             "800-hour": ("lego800/hour", None)}
-"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting;
-``800-hour``: the lattice an hour's budget takes (:func:`hour_lattice`; None: flags computed from the data)."""
+             "800-samples128": ("lego800/samples128", ("--set", VARIANTS["samples128"][2]))}
+"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -94,16 +90,6 @@ def upsampled(data: Path, folder: Path) -> Path:
         (folder / png.parent.name).mkdir(exist_ok=True)
         iio.imwrite(folder / png.parent.name / png.name, np.repeat(np.repeat(iio.imread(png), 2, 0), 2, 1))
     return folder
-
-
-def hour_lattice(data: Path) -> tuple:
-    """``--set`` flags that give a fit of any budget the lattice the default recipe takes for an hour's training on
-    the Blender folder ``data`` (``Sizing.cap``: a long budget's cap): its resolution and density refinement."""
-    from mitnerf.data.formats import load_dataset
-    from mitnerf.train.recipes import recipe_for
-
-    args = recipe_for(None, 3).override(time_budget=3600.0).sized(load_dataset(data)).model.field_args
-    return ("--set", f"resolution={args['resolution']}", "--set", f"density_refine={args.get('density_refine', 1)}")
 
 
 def fit(data: Path, budget: str, part: str | None = None, *flags: str) -> dict:
@@ -159,8 +145,7 @@ def main(argv=None) -> int:
                         "(fit --auto), resolution (the 3600 s field on views twice smaller and on its training "
                         "views), single (part 600 with one lattice for density and colour), grey (part 3600 with "
                         "grey view harmonics), uniform and uniform-hour (parts 600 and 3600 with uniform draws), "
-                        "samples128 and 800-samples128 (parts 3600 and 800 with 128 samples a ray), 800-hour (part "
-                        "800 with the lattice an hour's budget takes)")
+                        "samples128 and 800-samples128 (parts 3600 and 800 with 128 samples a ray)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -174,9 +159,7 @@ def main(argv=None) -> int:
             key, flags = UPSAMPLED[budget]
             (ROOT / "out").mkdir(exist_ok=True)
             with tempfile.TemporaryDirectory(dir=ROOT / "out") as tmp:
-                folder = upsampled(args.data, Path(tmp))
-                flags = hour_lattice(folder) if flags is None else flags
-                run = fit(folder, BUDGET_800, budget, *flags)
+                run = fit(upsampled(args.data, Path(tmp)), BUDGET_800, budget, *flags)
                 command = run["command"].replace(str(Path(tmp).relative_to(ROOT)), "<lego_400 upsampled>")
             v = values_of(run)
             line = (f"{v['size']} views (the 400 x 400 ones upsampled, nearest)" + "".join(f" {f}" for f in flags)

@@ -139,34 +139,6 @@ def test_lego_single_grey_and_uniform_run_a_budgets_command_with_one_setting(res
     assert "| `lego/single/600` (grid-3d+) | 400 x 400 | 200 | 31.00 | 0.970 |" in report.lego_table(load_results())
 
 
-def test_lego_800_hour_trains_the_lattice_an_hours_budget_takes(results, tmp_path, monkeypatch):
-    """Part 800-hour fits the upsampled views for BUDGET_800 seconds with the lattice grid-3d sizes for an hour. On
-    3 views 4 units away with focal 555.5 (459 vertices asked, the density refined, 13/20 of the floats kept): the
-    long cap 175 keeps 175 * 0.65^(1/3) = 151.6 vertices a side, 150.6 / 4 rounds to 38, so 153 (ten minutes' cap of
-    161: 139.5, 141)."""
-    from benchmarks import lego
-    import mitnerf.data.formats
-    from test_protocol import views_at
-
-    (tmp_path / "transforms_train.json").write_text("{}")
-    monkeypatch.setattr(mitnerf.data.formats, "load_dataset", lambda folder: views_at(555.5))
-    monkeypatch.setattr(lego, "upsampled", lambda data, folder: folder)
-    seen = []
-    metrics = {"psnr": 26.0, "ssim": 0.9, "train_time": 150.2, "steps": 700, "eval_time": 150.0,
-               "peak_memory": 3.5, "render_time": 0.5, "views": 200, "background": "white", "recipe": "grid-3d+"}
-
-    def fake_fit(data, budget, part=None, *flags):
-        seen.append((budget, part, flags))
-        return {"metrics": metrics, "size": "800 x 800", "wall": 400.0, "first": "recipe grid-3d+: ...",
-                "last": "test PSNR 26.00 dB", "command": f"python -m mitnerf fit --data {data}"}
-
-    monkeypatch.setattr(lego, "fit", fake_fit)
-    assert lego.main(["--data", str(tmp_path), "--parts", "800-hour"]) == 0
-    assert seen == [(lego.BUDGET_800, "800-hour", ("--set", "resolution=153", "--set", "density_refine=2"))]
-    entry = load_results()["lego800/hour"]
-    assert "resolution=153" in entry["summary"] and entry["values"]["peak_gib"] == 3.5
-
-
 def test_lego_auto_records_the_search_and_the_whole_wall_time(results, tmp_path, monkeypatch):
     """Part auto: ``fit --auto`` with probes of 120 s; the record keeps the probes' lines and counts the sizes."""
     from benchmarks import lego
