@@ -411,14 +411,3 @@ def test_views_are_read_at_their_own_size_up_to_the_cap(vase_small, tmp_path, mo
     assert line == "views: read 2 times smaller, 12 x 12 (the 6 training views hold 3,456 pixels; --downscale 1 " \
                    "keeps them all)"
     assert fit_cmd.read_views(tmp_path / "ds", 1)[0]["train"].cameras.width == 24
-
-
-@pytest.mark.parametrize("budget, final", [(None, 161), (600.0, 161), (1799.0, 161), (1800.0, 177), (3600.0, 177)])
-def test_a_long_budget_takes_the_finer_cap(budget, final):
-    """grid-3d on one lattice (density_refine 1) for views asking for 3.3 * 555.5 / 4 + 1 = 459 vertices a side: the
-    cap of 161 below half an hour of training (None: the recipe's own 60 s); from 1800 s the long cap of 175, whose
-    174 spacings round to 44 * 4 (43.5 rounds to even): 177."""
-    settings = {"density_refine": 1, **({"time_budget": budget} if budget else {})}
-    recipe = get_recipe("grid-3d").override(**settings)
-    assert recipe.sizing.cap(budget) == (175 if budget and budget >= 1800 else 161)
-    assert recipe.sized(views_at(555.5)).model.field_args["resolution"] == final

@@ -58,7 +58,7 @@ class Recipe:
         lattice spans the box around the training views' visual hull where the data has one (:attr:`Dataset.hull_box`,
         an object scene), else the cube of the bound; its fullest axis has ``R`` vertices, one per
         :attr:`Sizing.vertices_per_pixel` pixel footprints, about as many in all at most as a cube of
-        :attr:`Sizing.max_resolution` (:meth:`Sizing.cap`: more for a long budget), rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
+        :attr:`Sizing.max_resolution`, rounded to ``c 2^d + 1`` (``d`` doublings, coarse to fine from ``c + 1``);
         occupancy bins of :attr:`Sizing.samples_per_vertex` per lattice spacing over [near, far],
         an occupancy cell per two lattice spacings (up to 128 per axis); a dense grid's total-variation weights
         scaled by the lattice's vertices per training pixel, and its batch doubled or mined
@@ -97,7 +97,7 @@ class Recipe:
 
             def cap(refine: int) -> float:           # the fullest axis in the cap's floats, density refined so
                 kept = dataclasses.replace(config, density_refine=refine).refined_share if refine > 1 else 1.0
-                cube = s.cap(out.train.time_budget) * kept ** (1 / dataset.dim)
+                cube = s.max_resolution * kept ** (1 / dataset.dim)
                 axis = (cube - 1) / float(np.prod(share)) ** (1.0 / len(share)) + 1
                 return min(axis, most_vertices(refine, dataset.dim))
 
@@ -235,7 +235,7 @@ class Recipe:
                                    "opacity_weight")
                          if getattr(t, k))
         s = self.sizing
-        sized = (f" (sizes from the data: {s.vertices_per_pixel:g} vertex per pixel, up to {s.cap(self.train.time_budget)})"
+        sized = (f" (sizes from the data: {s.vertices_per_pixel:g} vertex per pixel, up to {s.max_resolution})"
                  if s is not None else "")
         return (f"{self.name}: {self.model.field} ({args}){sized}; {r.n_coarse}{fine} samples{occ}; "
                 f"{budget}, batch {t.batch_rays}{mined}, lr {t.lr:g} -> {t.lr_final:g}{losses}")
@@ -288,12 +288,11 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
     _r("grid-3d", 3, "grid", dict(resolution=129, initial_resolution=33, upsample_at=(200, 600), tv_weight=1e-5,
                                   view_dependent=True, tv_color_weight=3e-4),
        dict(n_coarse=64, occupancy=dict(enabled=True, resolution=64, march_bins=256, early_stop=1e-3),
-            render_oversample=4),
+            render_oversample=2),
        dict(time_budget=60.0, lr=0.2, lr_final=0.005, batch_rays=8192, distortion_weight=1e-3, opacity_weight=1e-3,
             free_space_weight=1.0, solid_weight=0.1, solid_thickness=0.3, **_BUDGET),
        "the lattice over the box around the views' visual hull where the data has one, as many vertices as a 161^3 "
-       "cube at most, a 175^3 one for budgets of half an hour or more (the grid's training state grows with them; "
-       "an hour's steps fit the finer lattice); where the views ask for a density lattice twice "
+       "cube at most (the grid's training state grows with them); where the views ask for a density lattice twice "
        "as fine as the cap's floats hold refined (the lego's 400 x 400 views), the density on a lattice twice as fine "
        "as the colour's; a high learning rate (a budget of seconds buys few steps); a density TV ten times and a "
        "colour TV 30 times weaker than 2D's (views of 100 x 100 and more carry detail, texture and highlights that "
@@ -301,9 +300,9 @@ RECIPES: dict[str, Recipe] = {r.name: r for r in [
        "pixels (the lego's 100 views of 400 x 400: 0.17 colour vertices a pixel), where a step also draws most of "
        "its rays where the field's last errors were (mining 0.8) rather than uniformly; a ray's training samples "
        "end where its transmittance falls to 1e-3 (early_stop), so a thick object's front gets them; renders with "
-       "four times the samples of training on the same occupancy bins (benchmarks/lego.py)",
-       Sizing(vertices_per_pixel=1.5, max_resolution=161, long_max_resolution=175, doublings=2,
-              samples_per_vertex=1.0, tv_reference=1.0, density_refine=2, mining=0.8)),
+       "twice the samples of training on the same occupancy bins (benchmarks/lego.py)",
+       Sizing(vertices_per_pixel=1.5, max_resolution=161, doublings=2, samples_per_vertex=1.0, tv_reference=1.0,
+              density_refine=2, mining=0.8)),
     _r("hashlinear-3d", 3, "hashlinear", dict(resolutions=(33, 65, 129), dense_levels=2, log2_hashmap_size=19,
                                               view_levels=1, initial_levels=2, add_level_at=(300, 700),
                                               tv_color_weight=3e-4),

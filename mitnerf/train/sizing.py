@@ -35,11 +35,6 @@ class Sizing:
     """The finest lattice has at most as many vertices as a cube of this many a side (a box's fullest axis more):
     a dense grid's memory grows with its vertex count. A refined density lattice (``density_refine``) keeps the
     floats of that cube's grid, on fewer vertices (:attr:`GridConfig.refined_share`)."""
-    long_budget: float = 1800.0
-    """Training budgets of at least this many seconds take :attr:`long_max_resolution` as their cap."""
-    long_max_resolution: int | None = None
-    """The cap (:attr:`max_resolution`) of a long budget (:attr:`long_budget`), whose steps fit more vertices than a
-    few minutes' do; None: :attr:`max_resolution` whatever the budget."""
     doublings: int = 2
     """Coarse to fine: the lattice starts this many doublings coarser (the grid's ``initial_resolution``; the linearly
     decoded hash grid's levels, one per doubling)."""
@@ -70,9 +65,3 @@ class Sizing:
     recipe's batch takes, their rays where the field is still wrong. 0: twice the rays, drawn uniformly."""
     fixed: tuple = ()
     """Sizes set on the recipe (:meth:`~.recipes.Recipe.override`), which the data leaves alone."""
-
-    def cap(self, time_budget: float | None) -> int:
-        """The cap for a training budget of ``time_budget`` seconds (None: a number of steps, the short cap)."""
-        long = self.long_max_resolution is not None and (time_budget or 0.0) >= self.long_budget
-        return self.long_max_resolution if long else self.max_resolution
-
