@@ -26,12 +26,14 @@ part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly,
 ``uniform-hour`` (``lego/uniform/3600``) the same beside part ``3600``. Part ``samples128`` (``lego/samples128/3600``)
 runs part ``3600``'s command with ``--set n_coarse=128``: twice the samples a ray, so fewer steps in the hour; part
 ``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part
-``800``'s. Run each beside its default in one session: the pair is measured on one machine.
+``800``'s. Part ``fine`` (``lego/fine/3600``) runs part ``3600``'s command on a finer lattice (a 175^3 cube's floats
+rather than 161^3) rendered with four times the training samples rather than twice; part ``800-fine``
+(``lego800/fine``) measures its memory and evaluation time at 800 x 800. Run each beside its default in one session: the pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
     python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform uniform-hour samples128
-                               800-samples128]
+                               800-samples128 fine 800-fine]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -50,7 +52,7 @@ else:                                  # run as python benchmarks/lego.py
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
 PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform", "uniform-hour", "samples128",
-         "800-samples128")
+         "800-samples128", "fine", "800-fine")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
@@ -59,15 +61,21 @@ BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
 VARIANTS = {"single": ("single", "600", "density_refine=1"), "grey": ("grey", "3600", "view_color=grey"),
             "uniform": ("uniform", "600", "mining=0"), "uniform-hour": ("uniform", "3600", "mining=0"),
-            "samples128": ("samples128", "3600", "n_coarse=128")}
-"""Parts that run a budget's plain command with one ``--set``: ``(row, seconds, setting)``, recorded as
+            "samples128": ("samples128", "3600", "n_coarse=128"),
+            "fine": ("fine", "3600", ("resolution=213", "density_refine=2", "render_oversample=4"))}
+"""Parts that run a budget's plain command with ``--set`` settings: ``(row, seconds, setting)``, recorded as
 ``lego/<row>/<seconds>``; ``single``: one lattice for density and colour, against part ``600``'s default; ``grey``:
 grey view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice
 the rays), against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part
-``3600``'s."""
+``3600``'s; ``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against
+the default's 197 from 161^3) and four times the training samples in rendering (against twice), against part
+``3600``'s (a tuple: several settings)."""
 UPSAMPLED = {"800": ("lego800/upsampled", ()),
-             "800-samples128": ("lego800/samples128", ("--set", VARIANTS["samples128"][2]))}
-"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting."""
+             "800-samples128": ("lego800/samples128", ("--set", VARIANTS["samples128"][2])),
+             "800-fine": ("lego800/fine", ("--set", "resolution=209", "--set", "density_refine=2", "--set",
+                                           "render_oversample=4"))}
+"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting;
+``800-fine``: part ``fine``'s, its lattice as a 175^3 cube's floats size it on these views' box (209 a side)."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
     ("Plenoxels", "~34.1", "11-15 min", "GPU"),
@@ -145,7 +153,8 @@ def main(argv=None) -> int:
                         "(fit --auto), resolution (the 3600 s field on views twice smaller and on its training "
                         "views), single (part 600 with one lattice for density and colour), grey (part 3600 with "
                         "grey view harmonics), uniform and uniform-hour (parts 600 and 3600 with uniform draws), "
-                        "samples128 and 800-samples128 (parts 3600 and 800 with 128 samples a ray)")
+                        "samples128 and 800-samples128 (parts 3600 and 800 with 128 samples a ray), fine and "
+                        "800-fine (parts 3600 and 800 with a finer lattice and more samples in rendering)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")
     args = p.parse_args(argv)
     if not (args.data / "transforms_train.json").is_file():
@@ -202,7 +211,8 @@ def main(argv=None) -> int:
             continue
         if budget in VARIANTS:
             row, seconds, setting = VARIANTS[budget]
-            run = fit(args.data, seconds, f"{row}-{seconds}", "--set", setting)
+            flags = [f for s in ([setting] if isinstance(setting, str) else setting) for f in ("--set", s)]
+            run = fit(args.data, seconds, f"{row}-{seconds}", *flags)
             v = values_of(run)
             print(f"lego/{row}/{seconds}: {summary(v)}\n    {run['first']}")
             record_result(f"lego/{row}/{seconds}", v, summary(v), run["command"], recipe=v["recipe"],
