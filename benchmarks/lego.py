@@ -28,7 +28,8 @@ runs part ``3600``'s command with ``--set n_coarse=128``: twice the samples a ra
 ``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part
 ``800``'s. Part ``fine`` (``lego/fine/3600``) runs part ``3600``'s command on a finer lattice (a 175^3 cube's floats
 rather than 161^3) rendered with four times the training samples rather than twice; part ``800-fine``
-(``lego800/fine``) measures its memory and evaluation time at 800 x 800. Run each beside its default in one session: the pair is measured on one machine.
+(``lego800/fine``) measures its memory and evaluation time at 800 x 800. Run each beside its default in one
+session: the pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 

@@ -134,7 +134,8 @@ def test_lego_single_grey_and_uniform_run_a_budgets_command_with_one_setting(res
                     ("3600", "samples128-3600", ("--set", "n_coarse=128")),
                     ("3600", "fine-3600", ("--set", "resolution=213", "--set", "density_refine=2", "--set",
                                            "render_oversample=4"))]
-    assert {"lego/grey/3600", "lego/uniform/600", "lego/uniform/3600", "lego/samples128/3600"} <= set(load_results())
+    assert {"lego/grey/3600", "lego/uniform/600", "lego/uniform/3600", "lego/samples128/3600",
+            "lego/fine/3600"} <= set(load_results())
     entry = load_results()["lego/single/600"]
     assert entry["values"]["psnr"] == 31.0 and "density_refine=1" in entry["command"]
     from benchmarks import report
