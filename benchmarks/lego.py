@@ -60,22 +60,21 @@ RUN_3600 = ROOT / "out" / "lego" / "3600"
 """Where part ``3600`` writes its fit, which part ``resolution`` scores."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
-VARIANTS = {"single": ("single", "600", "density_refine=1"), "grey": ("grey", "3600", "view_color=grey"),
-            "uniform": ("uniform", "600", "mining=0"), "uniform-hour": ("uniform", "3600", "mining=0"),
-            "samples128": ("samples128", "3600", "n_coarse=128"),
+VARIANTS = {"single": ("single", "600", ("density_refine=1",)), "grey": ("grey", "3600", ("view_color=grey",)),
+            "uniform": ("uniform", "600", ("mining=0",)), "uniform-hour": ("uniform", "3600", ("mining=0",)),
+            "samples128": ("samples128", "3600", ("n_coarse=128",)),
             "fine": ("fine", "3600", ("resolution=213", "density_refine=2", "render_oversample=4"))}
-"""Parts that run a budget's plain command with ``--set`` settings: ``(row, seconds, setting)``, recorded as
+"""Parts that run a budget's plain command with ``--set`` settings: ``(row, seconds, settings)``, recorded as
 ``lego/<row>/<seconds>``; ``single``: one lattice for density and colour, against part ``600``'s default; ``grey``:
 grey view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice
 the rays), against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part
 ``3600``'s; ``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against
 the default's 197 from 161^3) and four times the training samples in rendering (against twice), against part
-``3600``'s (a tuple: several settings)."""
+``3600``'s."""
 UPSAMPLED = {"800": ("lego800/upsampled", ()),
-             "800-samples128": ("lego800/samples128", ("--set", VARIANTS["samples128"][2])),
-             "800-fine": ("lego800/fine", ("--set", "resolution=209", "--set", "density_refine=2", "--set",
-                                           "render_oversample=4"))}
-"""Parts on the views upsampled to 800 x 800: ``(key, flags)``; ``800-samples128``: part ``samples128``'s setting;
+             "800-samples128": ("lego800/samples128", VARIANTS["samples128"][2]),
+             "800-fine": ("lego800/fine", ("resolution=209", *VARIANTS["fine"][2][1:]))}
+"""Parts on the views upsampled to 800 x 800: ``(key, settings)``; ``800-samples128``: part ``samples128``'s setting;
 ``800-fine``: part ``fine``'s, its lattice as a 175^3 cube's floats size it on these views' box (209 a side)."""
 ANCHORS = [
     ("NeRF", "32.54", "about a day", "V100"),
@@ -99,6 +98,11 @@ def upsampled(data: Path, folder: Path) -> Path:
         (folder / png.parent.name).mkdir(exist_ok=True)
         iio.imwrite(folder / png.parent.name / png.name, np.repeat(np.repeat(iio.imread(png), 2, 0), 2, 1))
     return folder
+
+
+def set_flags(settings: tuple) -> list:
+    """The command line's ``--set`` flags of ``settings`` (``key=value`` each)."""
+    return [f for s in settings for f in ("--set", s)]
 
 
 def fit(data: Path, budget: str, part: str | None = None, *flags: str) -> dict:
@@ -166,7 +170,8 @@ def main(argv=None) -> int:
 
     for budget in args.parts:
         if budget in UPSAMPLED:
-            key, flags = UPSAMPLED[budget]
+            key, settings = UPSAMPLED[budget]
+            flags = set_flags(settings)
             (ROOT / "out").mkdir(exist_ok=True)
             with tempfile.TemporaryDirectory(dir=ROOT / "out") as tmp:
                 run = fit(upsampled(args.data, Path(tmp)), BUDGET_800, budget, *flags)
@@ -211,9 +216,8 @@ def main(argv=None) -> int:
                           threads=TrainConfig().threads)
             continue
         if budget in VARIANTS:
-            row, seconds, setting = VARIANTS[budget]
-            flags = [f for s in ([setting] if isinstance(setting, str) else setting) for f in ("--set", s)]
-            run = fit(args.data, seconds, f"{row}-{seconds}", *flags)
+            row, seconds, settings = VARIANTS[budget]
+            run = fit(args.data, seconds, f"{row}-{seconds}", *set_flags(settings))
             v = values_of(run)
             print(f"lego/{row}/{seconds}: {summary(v)}\n    {run['first']}")
             record_result(f"lego/{row}/{seconds}", v, summary(v), run["command"], recipe=v["recipe"],
