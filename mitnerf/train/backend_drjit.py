@@ -7,7 +7,6 @@ from __future__ import annotations
 import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
-from drjit.opt import Adam
 
 from .._drjit_compat import check_llvm, freeze, set_learning_rate
 from ..fields import make_field
@@ -15,6 +14,7 @@ from ..render.occupancy import OccupancyGrid
 from ..render.pipeline import Model, final
 from ..rng import uniform
 from . import losses
+from .adam import LeanAdam
 from .backend import SOLID_SALT, Backend, behind_depth, model_fields, training_loss
 
 
@@ -27,6 +27,12 @@ FREEZE_MAX_PARAMS = 1 << 24
 """Parameters above which a step is traced anew each time rather than replayed: a replay zero-fills and then copies
 each parameter's gradient, passes over memory (and a peak) that a traced step does not have (Dr.Jit 1.5); past
 about 16 M parameters they cost more than tracing the step does (the lego's grid: ``benchmarks/lego.py``)."""
+
+LEAN_ADAM_ABOVE = 60_000_000
+"""Parameters above which Adam's step evaluates one array at a time (:class:`~.adam.LeanAdam`): two copies of the
+parameters fewer at the step's peak, for two more passes over them. The recipes' own lattices stay below it and keep
+Adam's one launch, the faster; a finer lattice asked for (``--set resolution=...``) is where memory binds first
+(``benchmarks/adam_step.py`` measures both steps on the lego's lattices)."""
 
 CHECK_EVERY = 16
 """Steps between the checks that every parameter is finite: a non-finite gradient makes its parameter so in Adam's
@@ -50,8 +56,8 @@ class DrJitBackend(Backend):
         dr.set_thread_count(train_cfg.threads)
         self.model = build_model(model_cfg, dim, bound)
         self.chunk = 1 << 18 if self.model.fields["coarse"].traceable else 8192
-        self.opt = Adam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2, epsilon=train_cfg.eps,
-                        params=self.model.init_params(train_cfg.seed))
+        self.opt = LeanAdam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2, epsilon=train_cfg.eps,
+                            params=self.model.init_params(train_cfg.seed), lean_above=LEAN_ADAM_ABOVE)
         occ = model_cfg.render.occupancy
         self.occupancy = OccupancyGrid(occ, dim, bound) if occ.enabled else None
         self._inputs = None
