@@ -44,3 +44,15 @@ def test_ssim_is_scikit_images(shape):
         win = max(3, min(7, *[s if s % 2 else s - 1 for s in a.shape[:-1]]))
         want.append(structural_similarity(a, b, channel_axis=-1, data_range=1.0, win_size=win))
     assert ssim(p, t) == pytest.approx(np.mean(want), abs=1e-6)
+
+
+def test_peak_memory_is_the_programs_own_not_its_parents():
+    """A process started by a large one reports its own peak: ``getrusage`` would carry over the parent's size
+    (here above 0.5 GiB, its array touched) through fork and exec."""
+    import subprocess
+    import sys
+
+    held = np.ones(160 * 2 ** 20, np.float32)             # 640 MiB resident in this process
+    child = subprocess.run([sys.executable, "-c", "from mitnerf.train.evaluate import peak_memory; "
+                            "print(peak_memory())"], capture_output=True, text=True, check=True)
+    assert held.sum() > 0 and float(child.stdout) < 0.4
