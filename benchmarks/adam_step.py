@@ -1,0 +1,98 @@
+"""Adam's step on the lego's grid: ``drjit.opt.Adam``'s one launch against :class:`~mitnerf.train.adam.LeanAdam`
+(one array at a time), in steps a second and peak memory.
+
+Each measurement is its own process: it loads the lego (400 x 400), sizes the default recipe for an hour's budget,
+goes to the whole lattice at once (``upsample_at`` 1 and 2) and times steps 20 to 120, then reads the process's
+peak resident memory. Cases: the default lattice, and the finer one of ``benchmarks/lego.py`` part ``fine``
+(``resolution=213``, ``density_refine=2``); each with Adam's launch and with the lean step, the order alternating
+over ``--repeats``. What it measures is the rule :data:`mitnerf.train.backend_drjit.LEAN_ADAM_ABOVE` draws: above
+it, two copies of the parameters less at the step's peak are worth the step time the lean step costs.
+
+Records ``adam_step/lego`` in ``results.json``. Where the data is absent, one line says so and nothing runs.
+
+    python benchmarks/adam_step.py [--data ../shared/data/nerf_synthetic/lego_400] [--repeats 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+from mitnerf.results import record_result
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
+COMMAND = "python benchmarks/adam_step.py"
+CASES = {"default": {}, "fine": {"resolution": 213, "density_refine": 2}}
+"""The lattices measured: the recipe's own, and part ``fine``'s of ``benchmarks/lego.py``."""
+
+CHILD = r"""
+import json, sys, time
+import drjit as dr
+from mitnerf.data.formats import load_dataset
+from mitnerf.train import backend_drjit
+from mitnerf.train.fit import fit
+from mitnerf.train.recipes import get_recipe
+
+data, lean, settings = sys.argv[1], sys.argv[2] == "lean", json.loads(sys.argv[3])
+backend_drjit.LEAN_ADAM_ABOVE = 0 if lean else 1 << 62
+clock, n_params = {}, []
+step = backend_drjit.DrJitBackend.step
+
+def timed(self, index, seed, lr):
+    if index in (20, 120):
+        dr.sync_thread()
+        clock[index] = time.perf_counter()
+        n_params.append(self.n_params())
+    return step(self, index, seed, lr)
+
+backend_drjit.DrJitBackend.step = timed
+recipe = get_recipe("grid-3d").override(time_budget=3600.0, iters=121, val_every=0, upsample_at=(1, 2),
+                                        progress=False, **settings)
+fit(load_dataset(data), recipe)
+print(json.dumps({"steps_per_s": 100 / (clock[120] - clock[20]), "params": n_params[-1],
+                  "peak_gib": [int(line.split()[1]) for line in open("/proc/self/status")
+                               if line.startswith("VmHWM")][0] / 2 ** 20}))
+"""
+
+
+def measure(data: Path, adam: str, settings: dict) -> dict:
+    out = subprocess.run([sys.executable, "-c", CHILD, str(data), adam, json.dumps(settings)], capture_output=True,
+                         text=True, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", type=Path, default=DATA)
+    p.add_argument("--repeats", type=int, default=1)
+    args = p.parse_args(argv)
+    if not (args.data / "transforms_train.json").exists():
+        print(f"adam_step: no lego at {args.data}; nothing measured")
+        return 0
+    values, lines = {}, []
+    for case, settings in CASES.items():
+        runs: dict = {"fused": [], "lean": []}
+        for k in range(args.repeats):
+            for adam in (("fused", "lean") if k % 2 == 0 else ("lean", "fused")):
+                runs[adam].append(measure(args.data, adam, settings))
+        v = {f"{adam}_{key}": statistics.median(r[key] for r in rs) for adam, rs in runs.items()
+             for key in ("steps_per_s", "peak_gib")}
+        v.update(params=runs["lean"][0]["params"], step_ratio=v["lean_steps_per_s"] / v["fused_steps_per_s"],
+                 peak_saved_gib=v["fused_peak_gib"] - v["lean_peak_gib"], settings=settings)
+        values[case] = v
+        lines.append(f"{case} lattice ({v['params'] / 1e6:.1f} M parameters): Adam's launch "
+                     f"{v['fused_steps_per_s']:.2f} steps/s, peak {v['fused_peak_gib']:.2f} GiB; lean "
+                     f"{v['lean_steps_per_s']:.2f} steps/s ({v['step_ratio']:.2f}x), peak {v['lean_peak_gib']:.2f} GiB")
+        print(lines[-1], flush=True)
+    values["repeats"] = args.repeats
+    record_result("adam_step/lego", values, "lego 400, whole lattice: " + "; ".join(lines), COMMAND, threads=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
