@@ -4,8 +4,8 @@
 evaluates them all in one launch, so each old array is still alive when its successor is written: with the gradient
 ``g``, seven arrays the size of the parameters at once (``x, m, v, g`` and the three new ones). :class:`LeanAdam`
 evaluates, for one parameter at a time, ``m`` (the old ``m`` is then released), ``v`` (into the old ``m``'s memory,
-which Dr.Jit's allocator keeps for arrays of its size), drops the gradient, then ``x`` (into the old ``v``'s): five
-arrays at once for the largest parameter, four for the others. The values are the same to the bit; the price is
+which Dr.Jit's allocator keeps for reuse), drops the gradient, then ``x`` (into the old ``v``'s): two arrays the size
+of the parameters fewer at the step's peak. The values are the same to the bit; the price is
 two more passes over the parameters (``m`` and ``v`` written, then read back). The engine takes it for the
 largest models only (:data:`~mitnerf.train.backend_drjit.LEAN_ADAM_ABOVE`; ``benchmarks/adam_step.py`` measures
 both steps on the lego's grid); ``tests/test_adam.py`` checks the values and the memory.
