@@ -4,7 +4,7 @@
 Each measurement is its own process: it loads the lego (400 x 400), sizes the default recipe for an hour's budget,
 goes to the whole lattice at once (``upsample_at`` 1 and 2) and times steps 20 to 120, then reads the process's
 peak resident memory. Cases: the default lattice, and the finer one of ``benchmarks/lego.py`` part ``fine``
-(``resolution=213``, ``density_refine=2``); each with Adam's launch and with the lean step, the order alternating
+(``VARIANTS['fine']``); each with Adam's launch and with the lean step, the order alternating
 over ``--repeats``. What it measures is the rule :data:`mitnerf.train.backend_drjit.LEAN_ADAM_ABOVE` draws: above
 it, two copies of the parameters less at the step's peak are worth the step time the lean step costs.
 
@@ -22,19 +22,20 @@ import subprocess
 import sys
 from pathlib import Path
 
+from lego import DATA, VARIANTS
 from mitnerf.results import record_result
 
-ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
 COMMAND = "python benchmarks/adam_step.py"
-CASES = {"default": {}, "fine": {"resolution": 213, "density_refine": 2}}
-"""The lattices measured: the recipe's own, and part ``fine``'s of ``benchmarks/lego.py``."""
+CASES = {"default": {}, "fine": {k: json.loads(v) for k, v in (s.split("=", 1) for s in VARIANTS["fine"][2])}}
+"""The lattices measured: the recipe's own, and part ``fine``'s of ``benchmarks/lego.py`` (its settings; the
+render's samples do not touch a training step)."""
 
 CHILD = r"""
 import json, sys, time
 import drjit as dr
 from mitnerf.data.formats import load_dataset
 from mitnerf.train import backend_drjit
+from mitnerf.train.evaluate import peak_memory
 from mitnerf.train.fit import fit
 from mitnerf.train.recipes import get_recipe
 
@@ -54,9 +55,7 @@ backend_drjit.DrJitBackend.step = timed
 recipe = get_recipe("grid-3d").override(time_budget=3600.0, iters=121, val_every=0, upsample_at=(1, 2),
                                         progress=False, **settings)
 fit(load_dataset(data), recipe)
-print(json.dumps({"steps_per_s": 100 / (clock[120] - clock[20]), "params": n_params[-1],
-                  "peak_gib": [int(line.split()[1]) for line in open("/proc/self/status")
-                               if line.startswith("VmHWM")][0] / 2 ** 20}))
+print(json.dumps({"steps_per_s": 100 / (clock[120] - clock[20]), "params": n_params[-1], "peak_gib": peak_memory()}))
 """
 
 

@@ -63,6 +63,7 @@ import sys, drjit as dr
 from drjit.auto.ad import Float, UInt32
 from drjit.opt import Adam
 from mitnerf.train.adam import LeanAdam
+from mitnerf.train.evaluate import peak_memory
 dr.set_thread_count(2)
 
 def fit(n):
@@ -72,20 +73,17 @@ def fit(n):
         opt.step()
     dr.sync_thread()
 
-def kib(key):                       # VmHWM: this program's peak (getrusage's carries the parent's over fork and exec)
-    return [int(line.split()[1]) for line in open("/proc/self/status") if line.startswith(key)][0]
-
 fit(1 << 10)                        # the kernels compiled (their memory) before anything large lives
-before = kib("VmRSS")
+before = peak_memory()
 n = 1 << 25
 fit(n)
-print((kib("VmHWM") - before) * 1024 / (4 * n))
+print((peak_memory() - before) * 2 ** 30 / (4 * n))
 """
 
 
 def test_lean_step_holds_two_arrays_fewer_at_its_peak():
-    """Peak memory above what the process held before, in copies of the parameters (a fresh process each, its kernels
-    compiled first on a small array): the lean step holds two arrays the size of the parameters fewer than Adam's
+    """Peak memory above the peak before (:func:`~mitnerf.train.evaluate.peak_memory`), in copies of the parameters
+    (a fresh process each, its kernels compiled first on a small array): the lean step holds two arrays the size of the parameters fewer than Adam's
     (whose step holds ``x, m, v``, the gradient and the three new ones at once)."""
     peak = {k: float(subprocess.run([sys.executable, "-c", PEAK, k], capture_output=True, text=True,
                                     check=True).stdout) for k in ("adam", "lean")}
