@@ -83,8 +83,8 @@ print((peak_memory() - before) * 2 ** 30 / (4 * n))
 
 def test_lean_step_holds_two_arrays_fewer_at_its_peak():
     """Peak memory above the peak before (:func:`~mitnerf.train.evaluate.peak_memory`), in copies of the parameters
-    (a fresh process each, its kernels compiled first on a small array): the lean step holds two arrays the size of the parameters fewer than Adam's
-    (whose step holds ``x, m, v``, the gradient and the three new ones at once)."""
+    (a fresh process each, its kernels compiled first on a small array): the lean step holds two arrays the size of
+    the parameters fewer than Adam's (whose step holds ``x, m, v``, the gradient and the three new ones at once)."""
     peak = {k: float(subprocess.run([sys.executable, "-c", PEAK, k], capture_output=True, text=True,
                                     check=True).stdout) for k in ("adam", "lean")}
     assert peak["adam"] - peak["lean"] > 1.5, peak
