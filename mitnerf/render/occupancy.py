@@ -148,6 +148,10 @@ class OccupiedSampler:
     may end; None: at the last occupied bin."""
     early_stop: float = 0.0
     """Transmittance at which the occupied bins end (:attr:`OccupancyConfig.early_stop`)."""
+    fill: bool = True
+    """Write ``t = far, delta = 0`` to the slots past each ray's count; False leaves them unwritten, which saves two
+    passes over the ``n_rays * n`` slots where nothing reads them: a march reads only a ray's counted slots, and
+    :meth:`~.samplers.Explicit.points` reads the others as those values (renders)."""
     grouped: bool = False
     """Look the rays up grouped by their count of bins (:func:`~.samplers.grouped`): for a training batch, whose rays
     come in no order; a view's rays come in pixel order, which groups them already and keeps neighbours together."""
@@ -244,9 +248,12 @@ class OccupiedSampler:
             near_r, far_r, dt = (per_sample(v, ray) for v in (near_r, far_r, dt))
 
         # unused slots: t = far, delta = 0 (no contribution)
-        t_out = dr.gather(Float, per_sample(Float(far), dr.arange(UInt32, n_rays)),
-                          dr.arange(UInt32, n_rays * self.n) // self.n)
-        d_out = dr.zeros(Float, n_rays * self.n)
+        if self.fill:
+            t_out = dr.gather(Float, per_sample(Float(far), dr.arange(UInt32, n_rays)),
+                              dr.arange(UInt32, n_rays * self.n) // self.n)
+            d_out = dr.zeros(Float, n_rays * self.n)
+        else:
+            t_out, d_out = dr.empty(Float, n_rays * self.n), dr.empty(Float, n_rays * self.n)
         o, d = in_lanes(origins, order), in_lanes(directions, order)      # the lanes' rays, gathered once
         lanes = (o, d, ray, first, near_r, far_r, dt, t_out, d_out)
         if self.density is None or self.early_stop <= 0.0:

@@ -51,8 +51,8 @@ class RenderConfig:
     """Coarse samples per ray multiplied by this when a trained field is rendered (evaluation, videos), not in
     training: where a ray crosses more occupied bins than it has samples, a quadrature finer than the one the field
     was fitted with, so its renders do not show where the training samples fell (``benchmarks/lego.py``). The
-    occupancy bins stay ``march_bins`` (their lookups are half a render's work, and a ray never has more samples
-    than occupied bins), the fine pass keeps ``n_fine``; pixelNeRF's renderer takes ``n_coarse`` as it is."""
+    occupancy bins stay ``march_bins`` (their lookups are a large share of a render's work, and a ray never has more
+    samples than occupied bins), the fine pass keeps ``n_fine``; pixelNeRF's renderer takes ``n_coarse`` as it is."""
     min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
@@ -184,7 +184,8 @@ class Model(FieldSet):
                 density = lambda x: coarse.density(p, x)                                    # noqa: E731
             sampler = OccupiedSampler(*occupancy, n_coarse, cfg.occupancy.march_bins, coarse.bound,
                                       cfg.occupancy.resolution, seed, jitter=training, space=space, density=density,
-                                      early_stop=early_stop, grouped=training).build(origins, directions, near, far)
+                                      early_stop=early_stop, grouped=training,
+                                      fill=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
                   stop=0.0 if training else cfg.min_color_weight, space=space)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,

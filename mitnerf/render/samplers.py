@@ -80,6 +80,16 @@ class Explicit(_Sampler):
             return super().interval(ray, i, near, far)
         return self.t(ray, i, near, far), dr.gather(Float, self.delta_flat, ray * self.n + i)
 
+    def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
+        """As :meth:`_Sampler.points`; with a :attr:`count`, the slots past it read as ``t = far, delta = 0``
+        whatever they hold (a sampler need not write them)."""
+        t, delta = super().points(n_rays, near, far)
+        if self.count is None:
+            return t, delta
+        ray = dr.arange(UInt32, n_rays * self.n) // self.n
+        used = dr.arange(UInt32, n_rays * self.n) % self.n < dr.gather(UInt32, self.count, ray)
+        return dr.select(used, t, per_sample(far, ray)), dr.select(used, delta, 0.0)
+
 
 def by_count(sampler) -> UInt32 | None:
     """The rays in the order a march takes them, grouped by :attr:`~_Sampler.count`; None where every ray has

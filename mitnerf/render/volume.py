@@ -3,6 +3,8 @@
 ``method='replay'`` (default) uses the custom operation of :mod:`.integral`; ``'autodiff'`` is the plain-AD
 check :func:`integrate_autodiff` (also for forward mode), which stores every per-sample intermediate.
 Non-traceable fields (tensor-mode MLPs) are evaluated on all samples first and read back by the same operation.
+A render without gradients or weights (``stop`` > 0) of a traceable field that skips colour marches the density
+alone and reads the colour of the kept samples afterwards, packed (:mod:`.deferred`): the same integral.
 In a forward-facing or unbounded scene the field sees the warped points, and its density is stretched into density
 per unit of world distance (:mod:`.space`).
 """
@@ -14,6 +16,7 @@ from dataclasses import replace
 import drjit as dr
 from drjit.auto.ad import Array3f, Float, UInt32
 
+from .deferred import render_deferred
 from .integral import W_MIN, RenderOutput, VolumeIntegral, gathered_source
 from .space import DRJIT, Space
 
@@ -53,6 +56,15 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
         sigma, rgb = field.query(p, x, d, None if keep is None else (lambda s: keep(s * stretch)))
         return sigma * stretch, rgb
 
+    def density(x, d):                      # the same, density only
+        if not space.warped:
+            return field.density(params, x)
+        x, stretch = space.warp(x, d, DRJIT)
+        return field.density(params, x) * stretch
+
+    if method == "replay" and field.traceable and field.skips_color and stop > 0 and not (weights or input_grads):
+        return render_deferred(density, lambda x, d: query(params, x, d), list(origins), list(directions), near, far,
+                               sampler, tuple(background), float(w_min), float(stop))
     if method == "replay" and field.traceable:
         def source(p, x, d, index, keep=None):
             return query(p, x, d, keep if field.skips_color else None)

@@ -1,0 +1,98 @@
+r"""Renders without gradients, the colour deferred: a march of the density alone, then the colour of the samples
+that keep it, packed.
+
+The result is the volume integral of :mod:`.integral` (the same :math:`w_i = T_i \alpha_i`, the same rule that a
+sample adds colour only where :math:`w_i > w_{min}`, the same end of each march where :math:`T` falls to ``stop``),
+computed in another order:
+
+1. **March** (one symbolic loop, one sample per ray per step, rays grouped by their sample count as in
+   :class:`.integral.VolumeIntegral`): the density :math:`\sigma_i` only, accumulating :math:`T` and
+   :math:`D = \sum_i w_i t_i`, and writing to each slot ``ray * N + i`` it passes :math:`w_i` where
+   :math:`w_i > w_{min}`, else 0 (the slots past a march's end are never read).
+2. **Pack**: the slots of the samples kept, in one array (``dr.compress``): a ray's few samples on its surface,
+   usually.
+3. **Colour**: the field at the packed samples, every SIMD lane busy; then per ray
+   :math:`C = \sum_i w_i c_i + T_N c_{bg}`, summed front to back over its packed samples (no atomic adds: the
+   same render every run), and :math:`A = 1 - T_N`.
+
+In the fused march, a field whose colour is many reads (a lattice of view harmonics: 27 floats at 8 corners) reads
+it for a packet of lanes wherever one lane of the packet keeps its sample; here only kept samples are read, in full
+packets. The products :math:`w_i c_i` are rounded before they are summed, so the renders agree with the fused
+march's to rounding (``tests/test_deferred.py``); the render's time: ``benchmarks/lego.py``. It holds one float
+per slot (``[n_rays N]``) besides the sampler's. :func:`.volume.volume_render` takes this path for a traceable
+field that skips colour (``skips_color``), rendering without gradients and without weights. Twin: the integral's
+(:mod:`mitnerf.reference.render.volume`), which computes the same result.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import drjit as dr
+from drjit.auto.ad import Float, UInt32
+
+from .integral import RenderOutput, in_lanes, in_rays, marching
+from .samplers import by_count, per_sample
+
+
+def render_deferred(density: Callable, query: Callable, origins: list, directions: list, near: Float, far: Float,
+                    sampler, background, w_min: float, stop: float) -> RenderOutput:
+    """Rays ``origins, directions`` (D arrays ``[n_rays]``) through a field given as ``density(x, d) -> sigma`` and
+    ``query(x, d) -> (sigma, rgb)`` (world points; sigma per unit of distance) -> colour, depth and opacity
+    (no weights). ``sampler``: any sampler of :mod:`.samplers`; ``w_min``, ``stop``: see the module docstring."""
+    n, N = dr.width(origins[0]), sampler.n
+    order = by_count(sampler)
+    ray = dr.arange(UInt32, n) if order is None else order            # lane -> ray
+    o, d = in_lanes(origins, order), in_lanes(directions, order)
+    near_r, far_r = per_sample(near, ray), per_sample(far, ray)
+    kept = dr.empty(Float, n * N)          # slot i of each ray the march passed: w_i where w_i > w_min, else 0
+
+    def body(i, T, D, k):
+        t, delta = sampler.interval(ray, i, near_r, far_r)
+        sigma = density([oi + t * di for oi, di in zip(o, d)], d)
+        alpha = 1.0 - dr.exp(-sigma * delta)
+        w = T * alpha
+        keep = w > w_min
+        dr.scatter(kept, dr.select(keep, w, 0.0), ray * N + i)
+        return i + 1, T * (1.0 - alpha), D + w * t, k + dr.select(keep, 1, 0)
+
+    state = (UInt32(0), dr.full(Float, 1.0, n), dr.zeros(Float, n), dr.zeros(UInt32, n))
+    end, T, D, count = dr.while_loop(state, marching(sampler, stop, ray), body, label="deferred_march")
+    T, D = in_rays([T, D], order)
+    if order is not None:
+        end, count = (_permuted(v, order) for v in (end, count))
+    dr.eval(kept, T, D, end, count)
+
+    idx = dr.arange(UInt32, n * N)
+    passed = idx % N < dr.gather(UInt32, end, idx // N)               # slots past a march's end hold nothing
+    slot = dr.compress(passed & (dr.gather(Float, kept, idx, passed) > w_min))    # the kept samples, ray-major
+    C = _colours(query, origins, directions, near, far, sampler, kept, slot, count) if dr.width(slot) else \
+        [dr.zeros(Float, n) for _ in range(3)]                         # no sample kept: the background
+    return RenderOutput([c + T * b for c, b in zip(C, background)], D, 1.0 - T)
+
+
+def _colours(query, origins, directions, near, far, sampler, kept, slot, count) -> list:
+    r"""Per ray, :math:`\sum_i w_i c_i` over its kept samples ``slot`` (``ray * N + i``, ray-major; ``count`` a ray)."""
+    N = sampler.n
+    r = slot // N
+    t, _ = sampler.interval(r, slot % N, per_sample(near, r), per_sample(far, r))
+    dk = [dr.gather(Float, di, r) for di in directions]
+    _, rgb = query([dr.gather(Float, oi, r) + t * di for oi, di in zip(origins, dk)], dk)
+    w = dr.gather(Float, kept, slot)
+    wc = [w * ci for ci in rgb]
+    dr.eval(wc)
+    start = dr.prefix_sum(count)                                       # exclusive
+
+    def add(j, C):                  # front to back over a ray's packed samples (deterministic: no atomic adds)
+        return j + 1, [c + dr.gather(Float, v, start + j) for c, v in zip(C, wc)]
+
+    n = dr.width(count)
+    return dr.while_loop((UInt32(0), [dr.zeros(Float, n) for _ in range(3)]), lambda j, C: j < count, add,
+                         label="deferred_sum")[1]
+
+
+def _permuted(values: UInt32, order: UInt32) -> UInt32:
+    """Lane-order values back in ray order."""
+    out = dr.zeros(UInt32, dr.width(order))
+    dr.scatter(out, values, order, mode=dr.ReduceMode.Permute)
+    return out
