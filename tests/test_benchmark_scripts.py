@@ -298,3 +298,28 @@ def test_nerfacto_skips_with_one_line_without_its_interpreter(results, tmp_path,
     (tmp_path / "transforms_test.json").write_text("{}")
     assert nerfacto.main(["--python", str(tmp_path / "none"), "--data", str(tmp_path)]) == 0
     assert capsys.readouterr().out.count("\n") == 1 and not results.exists()
+
+
+def test_render_records_both_modes_per_size_and_skips_without_the_data(results, tmp_path, monkeypatch, capsys):
+    """Each size's renders alternate their order over the repeats; the median seconds of each mode, their ratio, both
+    PSNRs and peaks are recorded under ``render/lego``."""
+    from benchmarks import render
+
+    assert render.main(["--data", str(tmp_path / "absent")]) == 0
+    assert capsys.readouterr().out.startswith("render: skipped, no Blender lego at ")
+    assert load_results() == {}
+    (tmp_path / "transforms_train.json").write_text("{}")
+    seconds = {"fused": iter([40.0, 44.0]), "deferred": iter([31.0, 29.0])}
+    order = []
+
+    def fake_measure(run, data, mode):
+        order.append(mode)
+        return {"render_s": next(seconds[mode]), "psnr": 31.5, "views": 200, "peak_gib": 2.0}
+
+    monkeypatch.setattr(render, "measure", fake_measure)
+    monkeypatch.setattr(render, "field", lambda data, budget: (tmp_path, "a field"))
+    assert render.main(["--data", str(tmp_path), "--sizes", "400", "--repeats", "2"]) == 0
+    assert order == ["fused", "deferred", "deferred", "fused"]
+    v = load_results()["render/lego"]["values"]["400"]
+    assert v["fused_render_s"] == 42.0 and v["deferred_render_s"] == 30.0 and v["ratio"] == pytest.approx(1.4)
+    assert "rendered in 30.0 s deferred, 42.0 s fused (1.40x)" in load_results()["render/lego"]["summary"]

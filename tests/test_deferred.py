@@ -2,6 +2,7 @@
 cases and against the fused march itself."""
 
 import math
+from dataclasses import replace
 
 import drjit as dr
 import numpy as np
@@ -93,8 +94,8 @@ def test_deferred_equals_the_fused_march_on_uneven_rays():
 
 def test_a_grid_rendered_through_its_occupancy_grid_as_by_the_fused_march():
     """A 3D grid of random values with view harmonics, rendered through an occupancy grid of its density: the model's
-    render (deferred colour, the sampler's unused slots unwritten) equals the fused march's (asked for weights),
-    and the samples the sampler reports are those of a sampler that writes every slot."""
+    render (deferred colour, the sampler's unused slots unwritten) equals the fused march's (asked for weights, or
+    with ``defer_color=False``), and the samples the sampler reports are those of a sampler that writes every slot."""
     cfg = GridConfig(dim=3, resolution=9, view_dependent=True, density_refine=2, density_scale=1.0, bound=1.0)
     field = GridField(cfg)
     rng = np.random.default_rng(7)
@@ -110,13 +111,17 @@ def test_a_grid_rendered_through_its_occupancy_grid_as_by_the_fused_march():
     d = -o / 3.0 + rng.normal(0, 0.15, (n, 3)).astype(np.float32)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     o, d = [Float(o[:, a]) for a in range(3)], [Float(d[:, a]) for a in range(3)]
+    fused_model = Model({"coarse": field}, replace(model.render_cfg, defer_color=False))
     with dr.suspend_grad():
-        out = [model.render({f"coarse.{k}": v for k, v in params.items()}, o, d, 1.5, 4.5, UInt32(0), training=False,
-                            weights=w, occupancy=grid.lookup) for w in (False, True)]
+        out = [m.render({f"coarse.{k}": v for k, v in params.items()}, o, d, 1.5, 4.5, UInt32(0), training=False,
+                        weights=w, occupancy=grid.lookup)
+               for m, w in ((model, False), (model, True), (fused_model, False))]
         filled, unfilled = (OccupiedSampler(*grid.lookup, 16, 48, 1.0, 8, UInt32(0), jitter=False, fill=f)
                             .build(o, d, 1.5, 4.5) for f in (True, False))
     deferred, fused = out[0]["coarse"], out[1]["coarse"]
     assert 0.05 < np.mean(np.asarray(fused.opacity)) < 0.95       # rays that see something and rays that do not
+    for a, b in zip([*out[1]["coarse"].rgb, fused.depth], [*out[2]["coarse"].rgb, out[2]["coarse"].depth]):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))         # defer_color=False: the fused march
     np.testing.assert_allclose(colours(deferred), colours(fused), rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(np.asarray(deferred.depth), np.asarray(fused.depth), rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(np.asarray(deferred.opacity), np.asarray(fused.opacity), rtol=1e-5, atol=1e-6)

@@ -53,6 +53,10 @@ class RenderConfig:
     was fitted with, so its renders do not show where the training samples fell (``benchmarks/lego.py``). The
     occupancy bins stay ``march_bins`` (their lookups are a large share of a render's work, and a ray never has more
     samples than occupied bins), the fine pass keeps ``n_fine``; pixelNeRF's renderer takes ``n_coarse`` as it is."""
+    defer_color: bool = setting(True)
+    """Renders without gradients march the density alone and read the colour of the samples that keep some
+    afterwards, packed (:mod:`.deferred`): the same renders, faster where the colour is many reads (the dense grid's
+    view harmonics), for one float a sample slot more memory; False: the fused march (``benchmarks/render.py``)."""
     min_color_weight: float = setting(W_MIN, lo=0.0, hi=0.01)
     """Samples whose weight is at most this add no colour, and the dense grid reads no colour there
     (:mod:`.integral`); 0: the colour of every sample of positive weight counts."""
@@ -187,7 +191,7 @@ class Model(FieldSet):
                                       early_stop=early_stop, grouped=training,
                                       fill=training).build(origins, directions, near, far)
         kw = dict(method=cfg.method, input_grads=input_grads, w_min=cfg.min_color_weight,
-                  stop=0.0 if training else cfg.min_color_weight, space=space)
+                  stop=0.0 if training else cfg.min_color_weight, space=space, defer=cfg.defer_color)
         result = {"coarse": volume_render(self.fields["coarse"], split_params(params, "coarse"), origins, directions,
                                           near, far, sampler, bg, weights=weights or cfg.n_fine > 0, **kw),
                   "fine": None}

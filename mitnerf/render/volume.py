@@ -38,13 +38,14 @@ def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, 
 def volume_render(field, params: dict, origins: list, directions: list, near, far, sampler,
                   background=(0.0, 0.0, 0.0), *, method: str = "replay", weights: bool = False,
                   input_grads: bool = False, w_min: float = W_MIN, stop: float = 0.0,
-                  space: Space = Space()) -> RenderOutput:
+                  space: Space = Space(), defer: bool = True) -> RenderOutput:
     """Render rays ``origins, directions`` (D arrays ``[n_rays]``; unit directions) through ``field``;
     ``near, far``: per-ray arrays or scalars. ``weights=True`` also returns the (differentiable) per-sample
     weights; ``input_grads=True`` makes origins and directions differentiable through a traceable field. Samples
     of weight at most ``w_min`` add no colour (:mod:`.integral`; 0: every sample's colour counts); ``stop`` > 0 ends
     a ray's march where its transmittance falls to it (renders without gradients). ``space``: the scene's warp
-    (:mod:`.space`)."""
+    (:mod:`.space`); ``defer``: such a render of a traceable field that skips colour reads the colour after the
+    march (:mod:`.deferred`; False: in it)."""
     near, far = Float(near), Float(far)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -62,7 +63,8 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
         x, stretch = space.warp(x, d, DRJIT)
         return field.density(params, x) * stretch
 
-    if method == "replay" and field.traceable and field.skips_color and stop > 0 and not (weights or input_grads):
+    deferred = defer and stop > 0 and not (weights or input_grads)          # a render, with nothing else asked
+    if deferred and method == "replay" and field.traceable and field.skips_color:
         return render_deferred(density, lambda x, d: query(params, x, d), list(origins), list(directions), near, far,
                                sampler, tuple(background), float(w_min), float(stop))
     if method == "replay" and field.traceable:
