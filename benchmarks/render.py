@@ -1,8 +1,8 @@
 """Rendering a trained field: the colour deferred (:mod:`mitnerf.render.deferred`, the default) against the fused
 march (``--set defer_color=false``), on the lego's 200 test views.
 
-The field is part ``3600``'s of ``benchmarks/lego.py`` (``out/lego/3600``, the hour's) where it exists, else one this
-benchmark fits with the plain command line for ``--budget`` seconds (``out/lego/render``). Each measurement is its own
+The field is part ``3600``'s of ``benchmarks/lego.py`` (``out/lego/3600``, the hour's) where it exists, else the one
+this benchmark fits with the plain command line for ``--budget`` seconds (``out/lego/render``, kept for later runs). Each measurement is its own
 process: it loads the checkpoint, evaluates the 200 test views with ``defer_color`` on or off (the order alternating
 over ``--repeats``), and reports the seconds spent rendering, the PSNR and the process's peak memory. Sizes: the
 test views at 400 x 400, and (``800``) the same views upsampled twice (nearest, into a temporary folder; the cameras
@@ -61,6 +61,9 @@ def field(data: Path, budget: str) -> tuple[Path, str]:
     if (RUN_3600 / "metrics.json").is_file():
         return RUN_3600, "part 3600's field of benchmarks/lego.py (the hour's)"
     out = ROOT / "out" / "lego" / "render"
+    if (out / "metrics.json").is_file():
+        return out, f"a field fitted for {json.loads((out / 'metrics.json').read_text())['train_time']:.0f} s " \
+                    "(mitnerf fit --data <lego_400>; out/lego/render, fitted by an earlier run)"
     mitnerf("fit", "--data", str(data), "--time-budget", budget, "--test-views", "1", "--no-figures", "--out",
             str(out))
     return out, f"a field fitted for {budget} s (mitnerf fit --data <lego_400> --time-budget {budget})"

@@ -47,6 +47,12 @@ def build_model(cfg, dim: int, bound: float) -> Model:
     return Model(model_fields(cfg, dim, bound, make_field), cfg.render)
 
 
+RENDER_CHUNK = 1 << 17
+"""Rays a render launches at once through a traceable field. The occupancy sampler and the deferred colour
+(:mod:`mitnerf.render.deferred`) hold three floats per sample slot of each: ``12 N`` bytes a ray for ``N`` slots,
+192 MiB a chunk for the lego's 128. Kernels over this many rays keep both threads busy."""
+
+
 class DrJitBackend(Backend):
     name = "drjit"
 
@@ -55,7 +61,7 @@ class DrJitBackend(Backend):
         check_llvm()
         dr.set_thread_count(train_cfg.threads)
         self.model = build_model(model_cfg, dim, bound)
-        self.chunk = 1 << 18 if self.model.fields["coarse"].traceable else 8192
+        self.chunk = RENDER_CHUNK if self.model.fields["coarse"].traceable else 8192
         self.opt = LeanAdam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2, epsilon=train_cfg.eps,
                             params=self.model.init_params(train_cfg.seed), lean_above=LEAN_ADAM_ABOVE)
         occ = model_cfg.render.occupancy
