@@ -2,11 +2,12 @@
 march (``--set defer_color=false``), on the lego's 200 test views.
 
 The field is part ``3600``'s of ``benchmarks/lego.py`` (``out/lego/3600``, the hour's) where it exists, else the one
-this benchmark fits with the plain command line for ``--budget`` seconds (``out/lego/render``, kept for later runs). Each measurement is its own
-process: it loads the checkpoint, evaluates the 200 test views with ``defer_color`` on or off (the order alternating
-over ``--repeats``), and reports the seconds spent rendering, the PSNR and the process's peak memory. Sizes: the
-test views at 400 x 400, and (``800``) the same views upsampled twice (nearest, into a temporary folder; the cameras
-of the held-back 800 x 800 views): four times the rays, the size whose two-minute limit issue 32 sets. Records
+this benchmark fits with the plain command line for ``--budget`` seconds (``out/lego/render``, kept for later
+runs). Each measurement is its own process: it loads the checkpoint, evaluates the 200 test views with
+``defer_color`` on or off (the order alternating over ``--repeats``), and reports the seconds spent rendering, the
+PSNR and the process's peak memory. Sizes: the test views at 400 x 400, and (``800``) the same views upsampled twice
+(nearest, into a temporary folder; the cameras of the held-back 800 x 800 views): four times the rays, the size whose
+two-minute limit the lego goals set. Records
 ``render/lego`` in ``results.json``: per size, the median seconds of each, their ratio, both PSNRs (the same renders:
 they differ by rounding) and both peaks. Where the data is absent, one line says so and nothing runs.
 
