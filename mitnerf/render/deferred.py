@@ -18,7 +18,7 @@ computed in another order:
 In the fused march, a field whose colour is many reads (a lattice of view harmonics: 27 floats at 8 corners) reads
 it for a packet of lanes wherever one lane of the packet keeps its sample; here only kept samples are read, in full
 packets. The products :math:`w_i c_i` are rounded before they are summed, so the renders agree with the fused
-march's to rounding (``tests/test_deferred.py``); the render's time: ``benchmarks/lego.py``. It holds one float
+march's to rounding (``tests/test_deferred.py``); the render's time: ``benchmarks/render.py``. It holds one float
 per slot (``[n_rays N]``) besides the sampler's. :func:`.volume.volume_render` takes this path for a traceable
 field that skips colour (``skips_color``), rendering without gradients and without weights. Twin: the integral's
 (:mod:`mitnerf.reference.render.volume`), which computes the same result.
@@ -72,7 +72,8 @@ def render_deferred(density: Callable, query: Callable, origins: list, direction
 
 
 def _colours(query, origins, directions, near, far, sampler, kept, slot, count) -> list:
-    r"""Per ray, :math:`\sum_i w_i c_i` over its kept samples ``slot`` (``ray * N + i``, ray-major; ``count`` a ray)."""
+    r"""Per ray, :math:`\sum_i w_i c_i` over its kept samples: ``slot`` their slots (``ray * N + i``, ray-major),
+    ``count`` how many each ray has."""
     N = sampler.n
     r = slot // N
     t, _ = sampler.interval(r, slot % N, per_sample(near, r), per_sample(far, r))
