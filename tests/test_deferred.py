@@ -127,3 +127,19 @@ def test_a_grid_rendered_through_its_occupancy_grid_as_by_the_fused_march():
     np.testing.assert_allclose(np.asarray(deferred.opacity), np.asarray(fused.opacity), rtol=1e-5, atol=1e-6)
     for a, b in zip(filled.points(n, Float(1.5), Float(4.5)), unfilled.points(n, Float(1.5), Float(4.5))):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_a_render_of_more_slots_than_the_cap_marches_fused(monkeypatch):
+    """Past ``DEFER_MAX_SLOTS`` (rays x samples) a render takes the fused march, which holds nothing per slot: the
+    same colour (the two-sample case above, 2 slots against a cap of 1), and the deferred path is not entered."""
+    import mitnerf.render.volume as volume
+
+    field = DeferringField([[1.0, 1.0]], [[[1, 0, 0], [0, 1, 0]]], [[1.0, 2.0]])
+    o, d = rays(1)
+    deferred = volume.volume_render(field, field.params, o, d, 0.5, 3.0, Explicit(Float([1.0, 2.0]), 2), (0, 0, 1),
+                                    stop=1e-4)
+    monkeypatch.setattr(volume, "DEFER_MAX_SLOTS", 1)
+    monkeypatch.setattr(volume, "render_deferred", lambda *a, **k: pytest.fail("deferred past the cap"))
+    fused = volume.volume_render(field, field.params, o, d, 0.5, 3.0, Explicit(Float([1.0, 2.0]), 2), (0, 0, 1),
+                                 stop=1e-4)
+    np.testing.assert_allclose(colours(fused), colours(deferred), rtol=1e-6)

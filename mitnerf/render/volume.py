@@ -21,6 +21,9 @@ from .integral import W_MIN, RenderOutput, VolumeIntegral, gathered_source
 from .space import DRJIT, Space
 
 METHODS = ("replay", "autodiff")
+DEFER_MAX_SLOTS = 1 << 26
+"""Sample slots (rays x samples a ray) past which a render marches fused rather than deferred: the deferred colour
+holds a float per slot (:mod:`.deferred`), 256 MiB at this many, where the fused march holds nothing per slot."""
 
 
 def integrate_autodiff(sigma: Float, rgb: list, t: Float, delta: Float, N: int, background,
@@ -45,7 +48,7 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
     of weight at most ``w_min`` add no colour (:mod:`.integral`; 0: every sample's colour counts); ``stop`` > 0 ends
     a ray's march where its transmittance falls to it (renders without gradients). ``space``: the scene's warp
     (:mod:`.space`); ``defer``: such a render of a traceable field that skips colour reads the colour after the
-    march (:mod:`.deferred`; False: in it)."""
+    march (:mod:`.deferred`; False, or more than :data:`DEFER_MAX_SLOTS` slots: in it)."""
     near, far = Float(near), Float(far)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -63,7 +66,8 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
         x, stretch = space.warp(x, d, DRJIT)
         return field.density(params, x) * stretch
 
-    deferred = defer and stop > 0 and not (weights or input_grads)          # a render, with nothing else asked
+    deferred = (defer and stop > 0 and not (weights or input_grads)          # a render, with nothing else asked
+                and dr.width(origins[0]) * sampler.n <= DEFER_MAX_SLOTS)
     if deferred and method == "replay" and field.traceable and field.skips_color:
         return render_deferred(density, lambda x, d: query(params, x, d), list(origins), list(directions), near, far,
                                sampler, tuple(background), float(w_min), float(stop))
