@@ -3,6 +3,7 @@ timed with its start-up, its printed lines kept."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import time
@@ -31,3 +32,10 @@ def mitnerf(*args, ok=(0,)) -> tuple[list[str], float]:
 def said(lines: list[str], head: str) -> str:
     """The first printed line that starts with ``head`` (``?`` if none)."""
     return next((ln for ln in lines if ln.startswith(head)), "?")
+
+
+def child(code: str, *args) -> dict:
+    """``python -c CODE ARGS`` (strings or paths) in a fresh process, for a measurement that must not share this one's
+    memory or compiled kernels: the JSON of its last printed line."""
+    out = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])

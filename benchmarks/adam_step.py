@@ -18,10 +18,10 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import subprocess
 import sys
 from pathlib import Path
 
+from _cli import child
 from lego import DATA, VARIANTS
 from mitnerf.results import record_result
 
@@ -60,9 +60,7 @@ print(json.dumps({"steps_per_s": 100 / (clock[120] - clock[20]), "params": n_par
 
 
 def measure(data: Path, adam: str, settings: dict) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(data), adam, json.dumps(settings)], capture_output=True,
-                         text=True, check=True).stdout
-    return json.loads(out.strip().splitlines()[-1])
+    return child(CHILD, data, adam, json.dumps(settings))
 
 
 def main(argv=None) -> int:

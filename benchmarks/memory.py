@@ -19,9 +19,7 @@ Last line: ``custom <a> MB autodiff <b> MB ratio <a/b>``.
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
+from _cli import child
 
 CHILD = r"""
 import json, resource, sys
@@ -72,8 +70,7 @@ print(json.dumps({"delta_mb": (peak - before) / 1024}))
 
 
 def measure(method: str, rays: int) -> float:
-    out = subprocess.run([sys.executable, "-c", CHILD, method, str(rays)], capture_output=True, text=True, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])["delta_mb"]
+    return child(CHILD, method, rays)["delta_mb"]
 
 
 def per_4096_rays(method: str) -> float:

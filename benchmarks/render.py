@@ -20,16 +20,15 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 if __package__:                        # imported as benchmarks.render (the tests)
-    from ._cli import ROOT, mitnerf
+    from ._cli import ROOT, child, mitnerf
     from .lego import DATA, RUN_3600, upsampled
 else:                                  # run as python benchmarks/render.py
-    from _cli import ROOT, mitnerf
+    from _cli import ROOT, child, mitnerf
     from lego import DATA, RUN_3600, upsampled
 
 COMMAND = "python benchmarks/render.py"
@@ -52,9 +51,7 @@ print(json.dumps({"render_s": rec.render_time * rec.views, "psnr": rec.psnr, "vi
 
 
 def measure(run: Path, data: Path, mode: str) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(run), str(data), mode], capture_output=True, text=True,
-                         check=True, cwd=ROOT).stdout
-    return json.loads(out.strip().splitlines()[-1])
+    return child(CHILD, run.resolve(), data.resolve(), mode)
 
 
 def field(data: Path, budget: str) -> tuple[Path, str]:

@@ -58,9 +58,7 @@ def render_deferred(density: Callable, query: Callable, origins: list, direction
 
     state = (UInt32(0), dr.full(Float, 1.0, n), dr.zeros(Float, n), dr.zeros(UInt32, n))
     end, T, D, count = dr.while_loop(state, marching(sampler, stop, ray), body, label="deferred_march")
-    T, D = in_rays([T, D], order)
-    if order is not None:
-        end, count = (_permuted(v, order) for v in (end, count))
+    T, D, end, count = in_rays([T, D, end, count], order)
     dr.eval(kept, T, D, end, count)
 
     idx = dr.arange(UInt32, n * N)
@@ -90,10 +88,3 @@ def _colours(query, origins, directions, near, far, sampler, kept, slot, count) 
     n = dr.width(count)
     return dr.while_loop((UInt32(0), [dr.zeros(Float, n) for _ in range(3)]), lambda j, C: j < count, add,
                          label="deferred_sum")[1]
-
-
-def _permuted(values: UInt32, order: UInt32) -> UInt32:
-    """Lane-order values back in ray order."""
-    out = dr.zeros(UInt32, dr.width(order))
-    dr.scatter(out, values, order, mode=dr.ReduceMode.Permute)
-    return out

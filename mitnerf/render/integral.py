@@ -69,10 +69,10 @@ def in_lanes(values, order) -> list:
 
 
 def in_rays(values, order) -> list:
-    """Lane-order arrays back in ray order."""
+    """Lane-order arrays (of any type) back in ray order."""
     if order is None:
         return list(values)
-    out = [dr.zeros(Float, dr.width(order)) for _ in values]
+    out = [dr.zeros(type(v), dr.width(order)) for v in values]
     for r, v in zip(out, values):
         dr.scatter(r, v, order, mode=dr.ReduceMode.Permute)
     return out

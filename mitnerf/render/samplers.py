@@ -86,8 +86,9 @@ class Explicit(_Sampler):
         t, delta = super().points(n_rays, near, far)
         if self.count is None:
             return t, delta
-        ray = dr.arange(UInt32, n_rays * self.n) // self.n
-        used = dr.arange(UInt32, n_rays * self.n) % self.n < dr.gather(UInt32, self.count, ray)
+        idx = dr.arange(UInt32, n_rays * self.n)
+        ray = idx // self.n
+        used = idx % self.n < dr.gather(UInt32, self.count, ray)
         return dr.select(used, t, per_sample(far, ray)), dr.select(used, delta, 0.0)
 
 

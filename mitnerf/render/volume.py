@@ -60,17 +60,12 @@ def volume_render(field, params: dict, origins: list, directions: list, near, fa
         sigma, rgb = field.query(p, x, d, None if keep is None else (lambda s: keep(s * stretch)))
         return sigma * stretch, rgb
 
-    def density(x, d):                      # the same, density only
-        if not space.warped:
-            return field.density(params, x)
-        x, stretch = space.warp(x, d, DRJIT)
-        return field.density(params, x) * stretch
-
     deferred = (defer and stop > 0 and not (weights or input_grads)          # a render, with nothing else asked
                 and dr.width(origins[0]) * sampler.n <= DEFER_MAX_SLOTS)
     if deferred and method == "replay" and field.traceable and field.skips_color:
-        return render_deferred(density, lambda x, d: query(params, x, d), list(origins), list(directions), near, far,
-                               sampler, tuple(background), float(w_min), float(stop))
+        # the march's density: query's, whose colour no kernel then reads (unused values are never compiled)
+        return render_deferred(lambda x, d: query(params, x, d)[0], lambda x, d: query(params, x, d), list(origins),
+                               list(directions), near, far, sampler, tuple(background), float(w_min), float(stop))
     if method == "replay" and field.traceable:
         def source(p, x, d, index, keep=None):
             return query(p, x, d, keep if field.skips_color else None)
