@@ -278,4 +278,4 @@ class OccupiedSampler:
             self._place(lanes, end, K, clear=False)
         count = dr.zeros(UInt32, n_rays)
         dr.scatter(count, self._groups(K)[1], ray, mode=dr.ReduceMode.Permute)
-        return Explicit(t_out, self.n, d_out, count)
+        return Explicit(t_out, self.n, d_out, count, filled=self.fill)

@@ -69,6 +69,9 @@ class Explicit(_Sampler):
     n: int
     delta_flat: Float | None = None
     count: UInt32 | None = None
+    filled: bool = True
+    """Whether the slots past :attr:`count` hold ``t = far, delta = 0``; False: they hold anything, and
+    :meth:`points` masks them."""
 
     def t(self, ray: UInt32, i: UInt32, near: Float, far: Float) -> Float:
         inside = i < self.n
@@ -81,10 +84,10 @@ class Explicit(_Sampler):
         return self.t(ray, i, near, far), dr.gather(Float, self.delta_flat, ray * self.n + i)
 
     def points(self, n_rays: int, near: Float, far: Float) -> tuple[Float, Float]:
-        """As :meth:`_Sampler.points`; with a :attr:`count`, the slots past it read as ``t = far, delta = 0``
-        whatever they hold (a sampler need not write them)."""
+        """As :meth:`_Sampler.points`; with a :attr:`count` and slots not :attr:`filled`, the slots past it read as
+        ``t = far, delta = 0`` whatever they hold."""
         t, delta = super().points(n_rays, near, far)
-        if self.count is None:
+        if self.count is None or self.filled:
             return t, delta
         idx = dr.arange(UInt32, n_rays * self.n)
         ray = idx // self.n
