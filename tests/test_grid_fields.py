@@ -37,7 +37,7 @@ def test_grid_resize_keeps_a_linear_field():
     big = f.resize(params, 33)
     assert dr.width(big["density"]) == 33 * 33
     pts = np.random.default_rng(0).uniform(-1.4, 1.4, (2, 100)).astype(np.float32)
-    from mitnerf.fields.grid import corner_weights, interpolate
+    from mitnerf.fields.lattice import corner_weights, interpolate
 
     for p, res in ((params, 9), (big, 33)):
         corners, _ = corner_weights([Float(pts[0]), Float(pts[1])], [-1.5] * 2, [1.5] * 2, [res] * 2)

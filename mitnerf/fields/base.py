@@ -87,6 +87,15 @@ class Field(abc.ABC):
     def init_params(self, seed: int = 0) -> dict:
         return self.from_numpy(self.init_numpy(seed))
 
+    def saved(self, name: str, values) -> np.ndarray:
+        """Values that follow storage array ``name``'s layout (its Adam moments) as a checkpoint keeps them: the
+        array in memory, unless the storage pads its records (:meth:`stored` reverses it)."""
+        return np.asarray(values)
+
+    def stored(self, name: str, values: np.ndarray) -> np.ndarray:
+        """Values :meth:`saved` wrote, in storage array ``name``'s layout: flat float32."""
+        return np.asarray(values, np.float32).ravel()
+
     def schedule(self, step: int, params: dict) -> dict | None:
         """New storage when the training schedule changes the field at ``step`` (a grid's resize), else None."""
         return None

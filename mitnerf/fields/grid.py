@@ -22,13 +22,14 @@ from dataclasses import dataclass
 
 import drjit as dr
 import numpy as np
-from drjit.auto.ad import ArrayXf, Float, UInt32
+from drjit.auto.ad import Float, UInt32
 
 from ..errors import CheckpointError, ConfigError
 from ..rng import hash_u32
 from ..settings import setting
-from .base import Field, FieldConfig, cell_corners, density_activation
+from .base import Field, FieldConfig, density_activation
 from .harmonics import harmonic_rgb
+from .lattice import corner_weights, interpolate, read_record, record_layout, resample, strides
 
 
 MAX_SH_DEGREE = {2: 8, 3: 2}
@@ -112,6 +113,23 @@ class GridConfig(GridSettings):
     ``3 K``). A sized recipe keeps the unrefined grid's floats, on fewer colour vertices (:attr:`refined_share`).
     ``tv_weight`` stays as written: on k times finer spacings neighbours differ about k^2 less, so the density's
     total variation smooths less."""
+    color_packets: bool = setting(True)
+    """Each vertex's colour floats read in packets of 4 or 16 floats, padded to whole packets in memory where that
+    adds at most a quarter (:attr:`color_layout`; RGB view harmonics of degree 1: 12 floats, three packets of 4; of
+    degree 2: 27 floats in 32): training steps a few percent faster (``benchmarks/records.py``); False: the floats
+    alone, read one by one. Weights on disk and the torch twin hold the floats alone either way."""
+
+    @property
+    def color_layout(self) -> tuple[int, int]:
+        """``(floats a vertex's colour record takes in memory, floats a read takes)``: where :attr:`color_packets`,
+        :func:`~.lattice.record_layout` of :attr:`color_floats`, else the floats alone, read one by one. Pad floats
+        are 0 and stay 0: nothing reads them, so their gradient is 0."""
+        return record_layout(self.color_floats) if self.color_packets else (self.color_floats, 1)
+
+    @property
+    def color_stride(self) -> int:
+        """Floats a vertex's colour record takes in memory (:attr:`color_layout`)."""
+        return self.color_layout[0]
 
     def settle(self) -> None:
         """The initial resolution defaults to the final one; 3D grids have at most 513 vertices a side (a refined
@@ -166,10 +184,11 @@ class GridConfig(GridSettings):
         """Vertices per axis of the density lattice that goes with the colour lattice ``lattice(res)``."""
         return [self.density_refine * (n - 1) + 1 for n in self.lattice(res)]
 
-    def resolution_of_sizes(self, n_density: int, n_color: int) -> int:
-        """The colour lattice's fullest axis of a grid with ``n_density`` density floats and ``n_color`` colour ones
-        (:meth:`resolution_with`); sizes that fit no lattice of this config are refused."""
-        C = self.color_floats
+    def resolution_of_sizes(self, n_density: int, n_color: int, stride: int | None = None) -> int:
+        """The colour lattice's fullest axis of a grid with ``n_density`` density floats and ``n_color`` colour ones,
+        ``stride`` a vertex (:attr:`color_floats` where None; :meth:`resolution_with`); sizes that fit no lattice of
+        this config are refused."""
+        C = stride or self.color_floats
         res = self.resolution_with(n_color // C) if n_color % C == 0 else None
         if res is None or int(np.prod(self.density_lattice(res))) != n_density:
             raise CheckpointError(f"a grid of {n_density} density and {n_color} colour values fits no lattice of this "
@@ -202,46 +221,6 @@ class GridConfig(GridSettings):
         return res
 
 
-def lattice_corners(x: list, bound: float, res: int):
-    """``(integer coordinates, bi/trilinear weight)`` of the cell corners around points ``x`` (D arrays) on a
-    lattice of ``res^D`` vertices over ``[-bound, bound]^D`` (vertex ``k`` at ``-bound + 2 bound k / (res - 1)``)."""
-    return box_corners(x, [-bound] * len(x), [bound] * len(x), [res] * len(x))
-
-
-def box_corners(x: list, lo: list, hi: list, shape: list):
-    """:func:`lattice_corners` on a box: ``shape[a]`` vertices from ``lo[a]`` to ``hi[a]`` along axis ``a``."""
-    u = []
-    for xi, l, h, n in zip(x, lo, hi, shape):
-        c, r = 0.5 * (l + h), 0.5 * (h - l)
-        u.append(dr.clip(((xi if c == 0 else xi - c) * (1.0 / r) + 1.0) * (0.5 * (n - 1)), 0.0, n - 1.0001))
-    i0 = [dr.floor(ui) for ui in u]
-    return cell_corners([UInt32(f) for f in i0], [ui - f for ui, f in zip(u, i0)])
-
-
-def strides(shape: list) -> list:
-    """Flat-index step of each axis of a lattice stored x fastest."""
-    return [int(np.prod(shape[:a])) for a in range(len(shape))]
-
-
-def corner_weights(x: list, lo: list, hi: list, shape: list):
-    """``([(flat index UInt32, bi/trilinear weight Float)] of the cell corners, inside Bool)`` of points ``x``
-    (D arrays) in a lattice of ``shape`` vertices over the box ``lo``-``hi``; ``inside``: whether a point lies in it."""
-    step = strides(shape)
-    corners = [(sum((k * s for s, k in zip(step, key)), UInt32(0)), weight)
-               for key, weight in box_corners(x, lo, hi, shape)]
-    return corners, dr.all([(xi >= l) & (xi <= h) for xi, l, h in zip(x, lo, hi)])
-
-
-def interpolate(grid: Float, channels: int, corners, active=True) -> list:
-    """Interpolated values of a grid stored vertex-major (``channels`` floats per vertex); where ``active`` is
-    False, nothing is read (and 0 returned)."""
-    out = [Float(0.0)] * channels
-    for index, weight in corners:
-        for c in range(channels):
-            out[c] = dr.fma(dr.gather(Float, grid, index * channels + c, active), weight, out[c])
-    return out
-
-
 class LatticeField(Field):
     """Raw values interpolated on lattices, then activated (the dense grid, :mod:`.hashlinear`): every read is a
     gather, and the colour only where the integral keeps it. A subclass gives ``_sigma(params, x) -> (sigma,
@@ -272,7 +251,8 @@ class GridField(LatticeField):
     def resolution_of(self, params) -> int:
         """Vertices along the fullest axis of the colour lattice ``params`` hold (read from its size; the density's
         size checked against it)."""
-        return self.cfg.resolution_of_sizes(dr.width(params["density"]), dr.width(params["color"]))
+        return self.cfg.resolution_of_sizes(dr.width(params["density"]), dr.width(params["color"]),
+                                            self.cfg.color_stride)
 
     def shape_of(self, params) -> list:
         """Vertices per axis of the colour lattice ``params`` hold, x first."""
@@ -283,12 +263,26 @@ class GridField(LatticeField):
         return self.cfg.density_lattice(self.resolution_of(params))
 
     def to_numpy(self, params) -> dict:
-        shape = tuple(self.shape_of(params)[::-1])
+        cfg, shape = self.cfg, tuple(self.shape_of(params)[::-1])
         return {"density": np.asarray(params["density"]).reshape(self.density_shape_of(params)[::-1]),
-                "color": np.asarray(params["color"]).reshape(shape + (self.cfg.color_floats,))}
+                "color": np.asarray(params["color"]).reshape(shape + (cfg.color_stride,))[..., :cfg.color_floats]}
 
     def from_numpy(self, arrays) -> dict:
-        return {k: Float(np.asarray(arrays[k], np.float32).ravel()) for k in ("density", "color")}
+        return {k: Float(self.stored(k, arrays[k])) for k in ("density", "color")}
+
+    def saved(self, name: str, values) -> np.ndarray:
+        """The colour's without its pad floats: ``[vertices, color_floats]`` (a view, not a copy)."""
+        a = np.asarray(values)
+        return a.reshape(-1, self.cfg.color_stride)[:, :self.cfg.color_floats] if name == "color" else a
+
+    def stored(self, name: str, values: np.ndarray) -> np.ndarray:
+        """Flat, the colour's records padded (:attr:`GridConfig.color_stride`); a size that fits no whole records
+        is left as it is, for :meth:`resolution_of` to refuse."""
+        a = np.asarray(values, np.float32).ravel()
+        C, S = self.cfg.color_floats, self.cfg.color_stride
+        if name == "color" and S != C and a.size % C == 0:
+            a = np.pad(a.reshape(-1, C), ((0, 0), (0, S - C))).ravel()
+        return a
 
     def _sigma(self, params, x):
         """Density at ``x``, and the colour lattice's cell corners around it (the density's when ``density_refine`` is
@@ -301,17 +295,18 @@ class GridField(LatticeField):
         return dr.select(inside, density_activation(raw, self.cfg.density_activation), 0.0), corners
 
     def raw_color(self, params, corners, active=True) -> list:
-        return interpolate(params["color"], self.cfg.color_floats, corners, active)
+        return interpolate(params["color"], self.cfg.color_floats, corners, active, self.cfg.color_layout)
 
     def resize(self, params, res: int) -> dict:
         """Resample the colour to ``lattice(res)`` and the density to ``density_lattice(res)`` (coarse to fine)."""
         if res == self.resolution_of(params):
             return params
-        cfg, C = self.cfg, self.cfg.color_floats
+        cfg, layout = self.cfg, self.cfg.color_layout
         with dr.suspend_grad():
             dens = resample(dr.detach(params["density"]), 1, cfg.extent, self.density_shape_of(params),
                             cfg.density_lattice(res))
-            col = resample(dr.detach(params["color"]), C, cfg.extent, self.shape_of(params), cfg.lattice(res))
+            col = resample(dr.detach(params["color"]), layout[0], cfg.extent, self.shape_of(params), cfg.lattice(res),
+                           layout)
             dr.eval(dens, col)
         return {"density": dens, "color": col}
 
@@ -327,19 +322,20 @@ class GridField(LatticeField):
         if cfg.tv_weight <= 0 and cfg.tv_color_weight <= 0:
             return None
         total = Float(0.0)
-        for name, weight, C, shape in (("density", cfg.tv_weight, 1, self.density_shape_of(params)),
-                                       ("color", cfg.tv_color_weight, cfg.color_floats, self.shape_of(params))):
+        for name, weight, C, layout, shape in (
+                ("density", cfg.tv_weight, 1, None, self.density_shape_of(params)),
+                ("color", cfg.tv_color_weight, cfg.color_floats, cfg.color_layout, self.shape_of(params))):
             if weight <= 0:
                 continue
             step = strides(shape)
             v = tv_vertices(seed, cfg.tv_samples, int(np.prod(shape)))
             ok = [(v // s) % n < n - 1 for s, n in zip(step, shape)]      # has a neighbour along each axis
+            here = read_record(params[name], C, v, True, layout)
             per_vertex = Float(0.0)
-            for c in range(C):
-                here = dr.gather(Float, params[name], v * C + c)
-                for stride, has in zip(step, ok):
-                    there = dr.gather(Float, params[name], (v + stride) * C + c, has)
-                    per_vertex += dr.select(has, dr.square(there - here), 0.0)
+            for axis_step, has in zip(step, ok):
+                there = read_record(params[name], C, v + axis_step, has, layout)
+                for c in range(C):
+                    per_vertex += dr.select(has, dr.square(there[c] - here[c]), 0.0)
             total = total + weight * (cfg.density_scale ** 2 if name == "density" else 1.0) * dr.mean(per_vertex)
         return total
 
@@ -349,21 +345,6 @@ def most_vertices(dim: int, refine: int = 1) -> int:
     ``refine`` times finer, would pass twice that less one (:meth:`GridConfig.settle` refuses more)."""
     top = 8193 if dim == 2 else 513
     return min(top, (2 * top - 2) // refine + 1)
-
-
-def lattice_points(extent: tuple, shape: list) -> np.ndarray:
-    """The vertices of a lattice of ``shape`` over the box ``extent`` in storage order (x fastest): ``[V, D]``
-    float32 (both engines' :func:`resample`)."""
-    axes = [np.linspace(l, h, n, dtype=np.float32) for l, h, n in zip(*extent, shape)]
-    return np.stack([v.ravel() for v in np.meshgrid(*axes[::-1], indexing="ij")[::-1]], 1)
-
-
-def resample(grid: Float, channels: int, extent: tuple, shape: list, new_shape: list) -> Float:
-    """A lattice of ``shape`` vertices over the box ``extent`` (stored vertex-major, ``channels`` floats a vertex)
-    interpolated at the vertices of a lattice of ``new_shape`` over the same box."""
-    pts = lattice_points(extent, new_shape)
-    corners, _ = corner_weights([Float(np.ascontiguousarray(c)) for c in pts.T], *extent, shape)
-    return dr.ravel(ArrayXf(interpolate(grid, channels, corners)))
 
 
 TV_SALT = 0x2545F491

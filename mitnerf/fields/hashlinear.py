@@ -32,7 +32,8 @@ from drjit.auto.ad import Float, UInt32
 from ..errors import CheckpointError, ConfigError
 from ..settings import setting
 from .base import density_activation
-from .grid import GridSettings, LatticeField, lattice_corners, tv_vertices
+from .grid import GridSettings, LatticeField, tv_vertices
+from .lattice import lattice_corners
 from .hashenc import vertex_entry
 
 

@@ -120,6 +120,17 @@ class FieldSet:
         """The field whose output is the model's answer (fine if present)."""
         return "fine" if "fine" in self.fields else "coarse"
 
+    def saved(self, key: str, values):
+        """Values in the layout of storage array ``key`` (``group.name``) as a checkpoint keeps them
+        (:meth:`~mitnerf.fields.base.Field.saved`)."""
+        group, name = key.split(".", 1)
+        return self.fields[group].saved(name, values)
+
+    def stored(self, key: str, values):
+        """:meth:`saved`'s values back in storage array ``key``'s layout (:meth:`~mitnerf.fields.base.Field.stored`)."""
+        group, name = key.split(".", 1)
+        return self.fields[group].stored(name, values)
+
 
 @dataclass
 class Model(FieldSet):

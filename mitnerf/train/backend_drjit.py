@@ -208,12 +208,12 @@ class DrJitBackend(Backend):
         for k, (_, _, _, (t, m, v, _)) in self.opt.state.items():
             out[f"{k}.t"] = np.array(t, np.uint32).reshape(-1)
             dr.eval(m, v)
-            out[f"{k}.m"], out[f"{k}.v"] = np.asarray(m), np.asarray(v)          # views, not copies
+            out[f"{k}.m"], out[f"{k}.v"] = self.model.saved(k, m), self.model.saved(k, v)    # views, not copies
         return out
 
     def load_optimizer_state(self, arrays: dict[str, np.ndarray]) -> None:
         for k, (value, promoted, lr, (t, m, v, vmax)) in list(self.opt.state.items()):
             if f"{k}.m" not in arrays:
                 continue
-            M, V = type(m)(arrays[f"{k}.m"]), type(v)(arrays[f"{k}.v"])
+            M, V = (type(x)(self.model.stored(k, arrays[f"{k}.{s}"])) for x, s in ((m, "m"), (v, "v")))
             self.opt.state[k] = (value, promoted, lr, (type(t)(int(arrays[f"{k}.t"][0])), M, V, vmax))

@@ -7,7 +7,8 @@ import torch
 from torch import nn
 
 from ...fields.base import cell_corners
-from ...fields.grid import TV_SALT, GridConfig, lattice_points, strides
+from ...fields.grid import TV_SALT, GridConfig
+from ...fields.lattice import lattice_points, strides
 from ...rng import batch_indices
 from .harmonics import harmonic_rgb
 from .mlp import TwinField, density_activation
