@@ -21,9 +21,14 @@ import statistics
 import sys
 from pathlib import Path
 
-from _cli import child
-from lego import DATA, VARIANTS
 from mitnerf.results import record_result
+
+if __package__:                        # imported as benchmarks.adam_step (benchmarks/records.py under the tests)
+    from ._cli import child
+    from .lego import DATA, VARIANTS
+else:                                  # run as python benchmarks/adam_step.py
+    from _cli import child
+    from lego import DATA, VARIANTS
 
 COMMAND = "python benchmarks/adam_step.py"
 CASES = {"default": {}, "fine": {k: json.loads(v) for k, v in (s.split("=", 1) for s in VARIANTS["fine"][2])}}
