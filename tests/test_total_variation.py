@@ -34,7 +34,8 @@ BOX = dict(box=(-1.0, -0.5, -1.5, 1.0, 0.5, 0.5), cells=(1.0, 0.5, 0.75))     # 
 
 
 @pytest.mark.parametrize("dim, samples, box", [(2, 0, {}), (2, 40, {}), (3, 100, {}), (3, 60, BOX),
-                                               (3, 60, {**BOX, "density_refine": 2})])
+                                               (3, 60, {**BOX, "density_refine": 2}), (2, 40, {"sh_degree": 2}),
+                                               (3, 60, {"sh_degree": 2})])
 def test_total_variation_twin_agrees(dim, samples, box):
     # the same random grids in both engines, the same step seed: equal value and equal gradients
     torch = pytest.importorskip("torch")
@@ -53,7 +54,6 @@ def test_total_variation_twin_agrees(dim, samples, box):
     tv = twin.regularizer(11)
     tv.backward()
     assert float(value[0]) == pytest.approx(float(tv.detach()), rel=1e-5)
-    np.testing.assert_allclose(np.asarray(dr.grad(params["density"])), twin.density_grid.grad.numpy().ravel(),
-                               rtol=1e-4, atol=1e-7)
-    np.testing.assert_allclose(np.asarray(dr.grad(params["color"])), twin.color_grid.grad.numpy().ravel(),
-                               rtol=1e-4, atol=1e-7)
+    grads = f.to_numpy({k: dr.grad(v) for k, v in params.items()})       # without the colour's pad floats
+    np.testing.assert_allclose(grads["density"].ravel(), twin.density_grid.grad.numpy().ravel(), rtol=1e-4, atol=1e-7)
+    np.testing.assert_allclose(grads["color"].ravel(), twin.color_grid.grad.numpy().ravel(), rtol=1e-4, atol=1e-7)

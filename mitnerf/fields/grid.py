@@ -7,7 +7,7 @@ Values live on a lattice of vertices over a box: by default ``R^D`` vertices spa
 interpolates raw values (bi/trilinear) and *then* applies the activations, so a surface can be sharper than a
 cell, as in Plenoxels and DVGO. Outside the box the density is 0. Every operation is a gather, so
 the field is traceable (it runs inside the fused march); where the integral does not use a sample's colour
-(``keep``), only the density is read (one channel per corner instead of 1 + the colour's floats), so
+(``keep``), only the density is read (one read per corner instead of 1 + the colour's reads), so
 empty space and the inside of a surface cost that much less in the primal and the adjoint
 (``benchmarks/grid_step.py``). With ``density_refine`` k the density has a lattice of its own, k times finer than
 the colour's over the same box, so edges and thin parts get finer cells for one float a vertex (grid-3d does so
@@ -115,15 +115,17 @@ class GridConfig(GridSettings):
     total variation smooths less."""
     color_packets: bool = setting(True)
     """Each vertex's colour floats read in packets of 4 or 16 floats, padded to whole packets in memory where that
-    adds at most a quarter (:attr:`color_layout`; RGB view harmonics of degree 1: 12 floats, three packets of 4; of
-    degree 2: 27 floats in 32): training steps a few percent faster (``benchmarks/records.py``); False: the floats
-    alone, read one by one. Weights on disk and the torch twin hold the floats alone either way."""
+    adds at most a quarter (:attr:`color_layout`; 3D RGB view harmonics of degree 1: 12 floats, three packets of 4;
+    of degree 2: 27 floats in 32; 2D of degree 2: 15 in 16): a corner's colour takes one read (and one scatter in
+    the adjoint) a packet rather than one a float, and the colour, its gradient and Adam's two moments take the
+    padded floats (``benchmarks/records.py``); False: the floats alone, read one by one. Weights on disk and the
+    torch twin hold the floats alone either way."""
 
     @property
     def color_layout(self) -> tuple[int, int]:
         """``(floats a vertex's colour record takes in memory, floats a read takes)``: where :attr:`color_packets`,
         :func:`~.lattice.record_layout` of :attr:`color_floats`, else the floats alone, read one by one. Pad floats
-        are 0 and stay 0: nothing reads them, so their gradient is 0."""
+        are 0 and stay 0: no loss reads them (a resize resamples them, zeros to zeros), so their gradient is 0."""
         return record_layout(self.color_floats) if self.color_packets else (self.color_floats, 1)
 
     @property
@@ -191,7 +193,8 @@ class GridConfig(GridSettings):
         C = stride or self.color_floats
         res = self.resolution_with(n_color // C) if n_color % C == 0 else None
         if res is None or int(np.prod(self.density_lattice(res))) != n_density:
-            raise CheckpointError(f"a grid of {n_density} density and {n_color} colour values fits no lattice of this "
+            shown = n_color // C * self.color_floats if n_color % C == 0 else n_color      # as the weights hold them
+            raise CheckpointError(f"a grid of {n_density} density and {shown} colour values fits no lattice of this "
                                   "box, cells, view dependence, view_color and density_refine; the weights were saved "
                                   "with another configuration")
         return res
@@ -276,11 +279,14 @@ class GridField(LatticeField):
         return a.reshape(-1, self.cfg.color_stride)[:, :self.cfg.color_floats] if name == "color" else a
 
     def stored(self, name: str, values: np.ndarray) -> np.ndarray:
-        """Flat, the colour's records padded (:attr:`GridConfig.color_stride`); a size that fits no whole records
-        is left as it is, for :meth:`resolution_of` to refuse."""
+        """Flat, the colour's records padded (:attr:`GridConfig.color_stride`); colour values that fill no whole
+        records are refused (:class:`~mitnerf.errors.CheckpointError`)."""
         a = np.asarray(values, np.float32).ravel()
         C, S = self.cfg.color_floats, self.cfg.color_stride
-        if name == "color" and S != C and a.size % C == 0:
+        if name == "color" and S != C:
+            if a.size % C:                  # it might fill whole padded records: refused here, not misread
+                raise CheckpointError(f"{a.size} colour values fill no whole vertices of {C} floats (view "
+                                      "dependence, view_color); the weights were saved with another configuration")
             a = np.pad(a.reshape(-1, C), ((0, 0), (0, S - C))).ravel()
         return a
 

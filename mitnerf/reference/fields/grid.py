@@ -119,7 +119,7 @@ class GridField(TwinField):
 
 
 def resample(grid: torch.Tensor, extent: tuple, shape: list, new_shape: list) -> torch.Tensor:
-    """Twin of :func:`mitnerf.fields.grid.resample`: ``grid [V, C]`` on ``shape`` -> ``[V', C]`` on ``new_shape``."""
+    """Twin of :func:`mitnerf.fields.lattice.resample`: ``grid [V, C]`` on ``shape`` -> ``[V', C]`` on ``new_shape``."""
     return interpolate(grid, corner_weights(torch.from_numpy(lattice_points(extent, new_shape)), *extent, shape)[0])
 
 
