@@ -4,6 +4,7 @@ timed with its start-up, its printed lines kept."""
 from __future__ import annotations
 
 import json
+import statistics
 import subprocess
 import sys
 import time
@@ -32,6 +33,21 @@ def mitnerf(*args, ok=(0,)) -> tuple[list[str], float]:
 def said(lines: list[str], head: str) -> str:
     """The first printed line that starts with ``head`` (``?`` if none)."""
     return next((ln for ln in lines if ln.startswith(head)), "?")
+
+
+def alternating(modes: tuple, repeats: int, measure) -> dict[str, list]:
+    """``{mode: [measure(mode), ...]}`` over ``repeats`` rounds, the modes in order on even rounds and reversed on odd
+    ones, so that neither always runs first on a machine whose speed drifts."""
+    runs: dict = {m: [] for m in modes}
+    for k in range(repeats):
+        for mode in (modes if k % 2 == 0 else modes[::-1]):
+            runs[mode].append(measure(mode))
+    return runs
+
+
+def medians(runs: dict[str, list], keys: tuple) -> dict:
+    """``{f"{mode}_{key}": the median of key over that mode's measurements}``."""
+    return {f"{m}_{key}": statistics.median(r[key] for r in rs) for m, rs in runs.items() for key in keys}
 
 
 def child(code: str, *args) -> dict:

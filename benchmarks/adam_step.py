@@ -17,17 +17,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
 import sys
 from pathlib import Path
 
 from mitnerf.results import record_result
 
 if __package__:                        # imported as benchmarks.adam_step (benchmarks/records.py under the tests)
-    from ._cli import child
+    from ._cli import alternating, child, medians
     from .lego import DATA, VARIANTS
 else:                                  # run as python benchmarks/adam_step.py
-    from _cli import child
+    from _cli import alternating, child, medians
     from lego import DATA, VARIANTS
 
 COMMAND = "python benchmarks/adam_step.py"
@@ -78,12 +77,8 @@ def main(argv=None) -> int:
         return 0
     values, lines = {}, []
     for case, settings in CASES.items():
-        runs: dict = {"fused": [], "lean": []}
-        for k in range(args.repeats):
-            for adam in (("fused", "lean") if k % 2 == 0 else ("lean", "fused")):
-                runs[adam].append(measure(args.data, adam, settings))
-        v = {f"{adam}_{key}": statistics.median(r[key] for r in rs) for adam, rs in runs.items()
-             for key in ("steps_per_s", "peak_gib")}
+        runs = alternating(("fused", "lean"), args.repeats, lambda adam: measure(args.data, adam, settings))
+        v = medians(runs, ("steps_per_s", "peak_gib"))
         v.update(params=runs["lean"][0]["params"], step_ratio=v["lean_steps_per_s"] / v["fused_steps_per_s"],
                  peak_saved_gib=v["fused_peak_gib"] - v["lean_peak_gib"], settings=settings)
         values[case] = v

@@ -14,16 +14,17 @@ Records ``records/lego`` in ``results.json``. Where the data is absent, one line
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 from pathlib import Path
 
 from mitnerf.results import record_result
 
 if __package__:                        # imported as benchmarks.records (the tests)
+    from ._cli import alternating, medians
     from .adam_step import measure
     from .lego import DATA
 else:                                  # run as python benchmarks/records.py
+    from _cli import alternating, medians
     from adam_step import measure
     from lego import DATA
 
@@ -42,12 +43,9 @@ def main(argv=None) -> int:
         return 0
     values, lines = {}, []
     for case, settings in CASES.items():
-        runs: dict = {"packets": [], "floats": []}
-        for k in range(args.repeats):
-            for mode in (("packets", "floats") if k % 2 == 0 else ("floats", "packets")):
-                runs[mode].append(measure(args.data, "lean", {**settings, "color_packets": mode == "packets"}))
-        v = {f"{mode}_{key}": statistics.median(r[key] for r in rs) for mode, rs in runs.items()
-             for key in ("steps_per_s", "peak_gib")}
+        runs = alternating(("packets", "floats"), args.repeats,
+                           lambda mode: measure(args.data, "lean", {**settings, "color_packets": mode == "packets"}))
+        v = medians(runs, ("steps_per_s", "peak_gib"))
         v.update(params=runs["packets"][0]["params"], step_ratio=v["packets_steps_per_s"] / v["floats_steps_per_s"],
                  settings=settings)
         values[case] = v

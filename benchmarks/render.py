@@ -19,16 +19,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
 import sys
 import tempfile
 from pathlib import Path
 
 if __package__:                        # imported as benchmarks.render (the tests)
-    from ._cli import ROOT, child, mitnerf
+    from ._cli import ROOT, alternating, child, medians, mitnerf
     from .lego import DATA, RUN_3600, upsampled
 else:                                  # run as python benchmarks/render.py
-    from _cli import ROOT, child, mitnerf
+    from _cli import ROOT, alternating, child, medians, mitnerf
     from lego import DATA, RUN_3600, upsampled
 
 COMMAND = "python benchmarks/render.py"
@@ -84,12 +83,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for size in args.sizes:
             data = args.data if size == "400" else upsampled(args.data, Path(tmp))
-            runs: dict = {m: [] for m in MODES}
-            for k in range(args.repeats):
-                for mode in (MODES if k % 2 == 0 else MODES[::-1]):
-                    runs[mode].append(measure(run, data, mode))
-            v = {f"{m}_{key}": statistics.median(r[key] for r in rs) for m, rs in runs.items()
-                 for key in ("render_s", "psnr", "peak_gib")}
+            runs = alternating(MODES, args.repeats, lambda mode: measure(run, data, mode))
+            v = medians(runs, ("render_s", "psnr", "peak_gib"))
             v.update(views=runs["deferred"][0]["views"], ratio=v["fused_render_s"] / v["deferred_render_s"])
             values[size] = v
             lines.append(f"{size} x {size}: the 200 test views rendered in {v['deferred_render_s']:.1f} s deferred, "
