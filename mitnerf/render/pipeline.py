@@ -120,6 +120,15 @@ class FieldSet:
         """The field whose output is the model's answer (fine if present)."""
         return "fine" if "fine" in self.fields else "coarse"
 
+
+@dataclass
+class Model(FieldSet):
+    """Fields and a render configuration."""
+
+    fields: dict
+    """``{'coarse': field}`` and, with a separate fine pass, ``'fine'``."""
+    render_cfg: RenderConfig = field(default_factory=RenderConfig)
+
     def saved(self, key: str, values):
         """Values in the layout of storage array ``key`` (``group.name``) as a checkpoint keeps them
         (:meth:`~mitnerf.fields.base.Field.saved`)."""
@@ -130,15 +139,6 @@ class FieldSet:
         """:meth:`saved`'s values back in storage array ``key``'s layout (:meth:`~mitnerf.fields.base.Field.stored`)."""
         group, name = key.split(".", 1)
         return self.fields[group].stored(name, values)
-
-
-@dataclass
-class Model(FieldSet):
-    """Fields and a render configuration."""
-
-    fields: dict
-    """``{'coarse': field}`` and, with a separate fine pass, ``'fine'``."""
-    render_cfg: RenderConfig = field(default_factory=RenderConfig)
 
     def init_numpy(self, seed: int) -> dict:
         """Initial weights, canonical numpy (both engines start from these)."""
