@@ -266,9 +266,9 @@ class GridField(LatticeField):
         return self.cfg.density_lattice(self.resolution_of(params))
 
     def to_numpy(self, params) -> dict:
-        cfg, shape = self.cfg, tuple(self.shape_of(params)[::-1])
+        shape = tuple(self.shape_of(params)[::-1]) + (self.cfg.color_floats,)
         return {"density": np.asarray(params["density"]).reshape(self.density_shape_of(params)[::-1]),
-                "color": np.asarray(params["color"]).reshape(shape + (cfg.color_stride,))[..., :cfg.color_floats]}
+                "color": self.saved("color", params["color"]).reshape(shape)}
 
     def from_numpy(self, arrays) -> dict:
         return {k: Float(self.stored(k, arrays[k])) for k in ("density", "color")}
