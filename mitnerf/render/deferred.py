@@ -18,8 +18,8 @@ computed in another order:
 In the fused march, a field whose colour is many reads (a lattice of view harmonics: 12 floats or more at 8
 corners) reads it for a packet of lanes wherever one lane of the packet keeps its sample; here only kept samples are
 read, in full packets. The products :math:`w_i c_i` are rounded before they are summed, so the renders agree with
-the fused march's to rounding (``tests/test_deferred.py``); the render's time: ``benchmarks/render.py``. It holds one float
-per slot (``[n_rays N]``) besides the sampler's. :func:`.volume.volume_render` takes this path for a traceable
+the fused march's to rounding (``tests/test_deferred.py``); the render's time: ``benchmarks/render.py``. It holds
+one float per slot (``[n_rays N]``) besides the sampler's. :func:`.volume.volume_render` takes this path for a traceable
 field that skips colour (``skips_color``), rendering without gradients and without weights. Twin: the integral's
 (:mod:`mitnerf.reference.render.volume`), which computes the same result.
 """
