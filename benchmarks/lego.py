@@ -10,31 +10,33 @@ evaluation's time and the process's peak memory, read from the run's ``metrics.j
 machine. Part ``800`` (``lego800/upsampled``) fits the same views upsampled twice (nearest, into a temporary
 folder) for :data:`BUDGET_800` seconds: the original 800 x 800 lego's pixel count, so its peak memory and the
 evaluation of its 200 test views at that size, though not its accuracy (the PSNR of blocky views is no figure).
-Part ``resolution`` (``lego_resolution/3600``) scores the field part ``3600`` wrote on the test views at their size
-and box-filtered to 200 x 200: what halving the pixels' size costs this field, read as the drop to expect from
-400 x 400 to the held-back 800 x 800; and on its 100 training views, the gap between views it saw and views it did
-not. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400> --auto
---time-budget 120``: the search's probes, what it chose, the chosen recipe's test figures and the whole command's
+Part ``resolution`` (``lego_resolution/3600``) scores the field part ``3600`` wrote on the test views at their size and
+box-filtered to 200 x 200: what halving the pixels' size costs this field, read as the drop to expect from 400 x 400 to
+the held-back 800 x 800; and on its 100 training views, the gap between views it saw and views it did not. Part
+``quadrature`` (``lego_quadrature/3600``) renders that field's 200 test views with each of :data:`OVERSAMPLES` times its
+training samples a ray (``RenderConfig.render_oversample``; the recipe's: 4), in one process: the PSNR and the seconds
+of each, the evidence for the recipe's choice. Part ``auto`` (``lego/auto/120``) runs ``mitnerf fit --data <lego_400>
+--auto --time-budget 120``: the search's probes, what it chose, the chosen recipe's test figures and the whole command's
 wall time. The default recipe takes the lego's density on a lattice twice as fine as its colour's
 (``Sizing.density_refine``); part ``single`` (``lego/single/600``) runs part ``600``'s command with ``--set
 density_refine=1``, one lattice for both in the same floats (more colour vertices): what that choice is measured
 against. Part ``grey`` (``lego/grey/3600``) runs part ``3600``'s command with ``--set view_color=grey``: the same
-lattice with one set of view harmonics shared by the three channels (``GridSettings.view_color``), half the
-colour's floats, so more steps in the hour and less memory. The default draws most of a batch's rays where the
-field's last errors were (``TrainConfig.mining``, ``Sizing.mining``); part ``uniform`` (``lego/uniform/600``) runs
-part ``600``'s command with ``--set mining=0``: twice the rays, drawn uniformly, as before mining; part
-``uniform-hour`` (``lego/uniform/3600``) the same beside part ``3600``. Part ``samples128`` (``lego/samples128/3600``)
-runs part ``3600``'s command with ``--set n_coarse=128``: twice the samples a ray, so fewer steps in the hour; part
-``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part
-``800``'s. Part ``fine`` (``lego/fine/3600``) runs part ``3600``'s command on a finer lattice (a 175^3 cube's floats
-rather than 161^3) rendered with four times the training samples rather than twice; part ``800-fine``
-(``lego800/fine``) measures its memory and evaluation time at 800 x 800. Run each beside its default in one
-session: the pair is measured on one machine.
+lattice with one set of view harmonics shared by the three channels (``GridSettings.view_color``), half the colour's
+floats, so more steps in the hour and less memory. The default draws most of a batch's rays where the field's last
+errors were (``TrainConfig.mining``, ``Sizing.mining``); part ``uniform`` (``lego/uniform/600``) runs part ``600``'s
+command with ``--set mining=0``: twice the rays, drawn uniformly, as before mining; part ``uniform-hour``
+(``lego/uniform/3600``) the same beside part ``3600``. Part ``samples128`` (``lego/samples128/3600``) runs part
+``3600``'s command with ``--set n_coarse=128``: twice the samples a ray, so fewer steps in the hour; part
+``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part ``800``'s.
+Part ``fine`` (``lego/fine/3600``) runs part ``3600``'s command on a finer lattice (a 175^3 cube's floats rather than
+161^3), with four times the training samples in rendering set (the recipe's own value); part ``800-fine``
+(``lego800/fine``) measures its memory and evaluation time at 800 x 800. Run each beside its default in one session: the
+pair is measured on one machine.
 ``benchmarks/report.py`` shows them in RESULTS.md beside the published figures (:data:`ANCHORS`) and the peer on
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
-    python benchmarks/lego.py [--parts 600 800 3600 resolution auto single grey uniform uniform-hour samples128
-                               800-samples128 fine 800-fine]
+    python benchmarks/lego.py [--parts 600 800 3600 resolution quadrature auto single grey uniform uniform-hour
+                               samples128 800-samples128 fine 800-fine]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -52,12 +54,14 @@ else:                                  # run as python benchmarks/lego.py
     from _cli import ROOT, mitnerf, said
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
-PARTS = ("600", "800", "3600", "resolution", "auto", "single", "grey", "uniform", "uniform-hour", "samples128",
-         "800-samples128", "fine", "800-fine")
+PARTS = ("600", "800", "3600", "resolution", "quadrature", "auto", "single", "grey", "uniform", "uniform-hour",
+         "samples128", "800-samples128", "fine", "800-fine")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
-"""Where part ``3600`` writes its fit, which part ``resolution`` scores."""
+"""Where part ``3600`` writes its fit, which parts ``resolution`` and ``quadrature`` score."""
+OVERSAMPLES = (1, 2, 4, 8)
+"""``render_oversample`` values part ``quadrature`` renders the hour's field with."""
 BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
 VARIANTS = {"single": ("single", "600", ("density_refine=1",)), "grey": ("grey", "3600", ("view_color=grey",)),
@@ -65,12 +69,11 @@ VARIANTS = {"single": ("single", "600", ("density_refine=1",)), "grey": ("grey",
             "samples128": ("samples128", "3600", ("n_coarse=128",)),
             "fine": ("fine", "3600", ("resolution=213", "density_refine=2", "render_oversample=4"))}
 """Parts that run a budget's plain command with ``--set`` settings: ``(row, seconds, settings)``, recorded as
-``lego/<row>/<seconds>``; ``single``: one lattice for density and colour, against part ``600``'s default; ``grey``:
-grey view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice
-the rays), against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part
-``3600``'s; ``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against
-the default's 197 from 161^3) and four times the training samples in rendering (against twice), against part
-``3600``'s."""
+``lego/<row>/<seconds>``; ``single``: one lattice for density and colour, against part ``600``'s default; ``grey``: grey
+view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice the rays),
+against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part ``3600``'s;
+``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against the default's
+197 from 161^3) and four times the training samples in rendering (the recipe's own value), against part ``3600``'s."""
 UPSAMPLED = {"800": ("lego800/upsampled", ()),
              "800-samples128": ("lego800/samples128", VARIANTS["samples128"][2]),
              "800-fine": ("lego800/fine", ("resolution=209", *VARIANTS["fine"][2][1:]))}
@@ -136,6 +139,22 @@ def scored_at_sizes(run: Path, data: Path) -> dict:
     return out
 
 
+def scored_with_oversamples(run: Path, data: Path) -> dict:
+    """The field in ``run`` on every test view of ``data``, rendered with each of :data:`OVERSAMPLES`:
+    ``{k: {"psnr", "ssim", "render_s"}}``."""
+    from mitnerf.data.formats import load_dataset
+    from mitnerf.train.checkpoint import load_checkpoint
+    from mitnerf.train.evaluate import evaluate
+
+    backend, ds = load_checkpoint(run)[0].backend, load_dataset(data)
+    out = {}
+    for k in OVERSAMPLES:
+        backend.model_cfg.render.render_oversample = k
+        rec = evaluate(backend, ds, "test", geometry_metrics=False)
+        out[k] = {"psnr": rec.psnr, "ssim": rec.ssim, "render_s": rec.render_time * rec.views}
+    return out
+
+
 def values_of(run: dict) -> dict:
     m = run["metrics"]
     return {"size": run["size"], "psnr": m["psnr"], "ssim": m["ssim"], "train_s": m["train_time"],
@@ -156,7 +175,8 @@ def main(argv=None) -> int:
     p.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                    help="which parts to run: budgets in seconds, 800 (memory and evaluation time at 800 x 800), auto "
                         "(fit --auto), resolution (the 3600 s field on views twice smaller and on its training "
-                        "views), single (part 600 with one lattice for density and colour), grey (part 3600 with "
+                        "views), quadrature (the 3600 s field rendered with 1, 2, 4 and 8 times its samples), "
+                        "single (part 600 with one lattice for density and colour), grey (part 3600 with "
                         "grey view harmonics), uniform and uniform-hour (parts 600 and 3600 with uniform draws), "
                         "samples128 and 800-samples128 (parts 3600 and 800 with 128 samples a ray), fine and "
                         "800-fine (parts 3600 and 800 with a finer lattice and more samples in rendering)")
@@ -203,6 +223,19 @@ def main(argv=None) -> int:
             print(f"lego_resolution/3600: {line}")
             record_result("lego_resolution/3600", v, line, "python benchmarks/lego.py --parts resolution",
                           recipe=json.loads((run / "metrics.json").read_text())["recipe"],
+                          threads=TrainConfig().threads)
+            continue
+        if budget == "quadrature":
+            if not (RUN_3600 / "manifest.json").is_file():
+                print(f"lego_quadrature: skipped, no fit at {RUN_3600} (run --parts 3600 first)")
+                continue
+            got = scored_with_oversamples(RUN_3600, args.data)
+            v = {"run": "out/lego/3600", **{f"x{k}": g for k, g in got.items()}}
+            line = "the lego/3600 field's 200 test views rendered with " + "; ".join(
+                f"{k}x its training samples: {g['psnr']:.3f} dB in {g['render_s']:.1f} s" for k, g in got.items())
+            print(f"lego_quadrature/3600: {line}")
+            record_result("lego_quadrature/3600", v, line, "python benchmarks/lego.py --parts quadrature",
+                          recipe=json.loads((RUN_3600 / "metrics.json").read_text())["recipe"],
                           threads=TrainConfig().threads)
             continue
         if budget == "auto":

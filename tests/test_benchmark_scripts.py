@@ -192,6 +192,46 @@ def test_lego_resolution_scores_the_3600_fit_twice_smaller_and_skips_without_it(
     assert "on its own training views 34.50 dB, SSIM 0.980 (+4.04 dB over the test views" in entry["summary"]
 
 
+def test_lego_quadrature_renders_the_3600_fit_with_each_oversample_and_skips_without_it(results, tmp_path,
+                                                                                         monkeypatch, capsys):
+    """Part quadrature: one checkpoint and one dataset loaded, the test views rendered once per oversample with that
+    oversample set at the time of the render; a record per oversample, and one line without the hour's fit."""
+    from types import SimpleNamespace
+
+    import mitnerf.data.formats as formats
+    import mitnerf.train.checkpoint as checkpoint
+    import mitnerf.train.evaluate as evaluate
+    from benchmarks import lego
+
+    (tmp_path / "transforms_train.json").write_text("{}")
+    monkeypatch.setattr(lego, "RUN_3600", tmp_path / "absent")
+    assert lego.main(["--data", str(tmp_path), "--parts", "quadrature"]) == 0
+    assert "lego_quadrature: skipped, no fit at " in capsys.readouterr().out and load_results() == {}
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "manifest.json").write_text("{}")
+    (run / "metrics.json").write_text('{"recipe": "grid-3d+"}')
+    monkeypatch.setattr(lego, "RUN_3600", run)
+    backend = SimpleNamespace(model_cfg=SimpleNamespace(render=SimpleNamespace(render_oversample=2)))
+    loads, seen = [], []
+    monkeypatch.setattr(checkpoint, "load_checkpoint", lambda r: loads.append(r) or (SimpleNamespace(backend=backend),
+                                                                                    None))
+    monkeypatch.setattr(formats, "load_dataset", lambda d: loads.append(d) or "dataset")
+
+    def fake_evaluate(b, ds, split, geometry_metrics):
+        k = b.model_cfg.render.render_oversample
+        seen.append((k, ds, split, geometry_metrics))
+        return SimpleNamespace(psnr=31.0 + 0.5 * min(k, 4) ** 0.5, ssim=0.97, render_time=0.1 * k, views=200)
+
+    monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
+    assert lego.main(["--data", str(tmp_path), "--parts", "quadrature"]) == 0
+    assert loads == [run, tmp_path] and seen == [(k, "dataset", "test", False) for k in (1, 2, 4, 8)]
+    entry = load_results()["lego_quadrature/3600"]
+    assert entry["recipe"] == "grid-3d+" and entry["values"]["x4"] == {"psnr": 32.0, "ssim": 0.97, "render_s": 80.0}
+    assert "1x its training samples: 31.500 dB in 20.0 s; 2x" in entry["summary"]      # 31 + 0.5 * 1, 200 * 0.1
+    assert entry["summary"].endswith("8x its training samples: 32.000 dB in 160.0 s")
+
+
 def test_lego_800_fits_the_views_upsampled_and_records_memory_and_time(results, tmp_path, monkeypatch):
     """Part 800: every view twice as large, each pixel a 2 x 2 block, its transforms files beside them; the record
     names memory and evaluation time, and its command no temporary folder."""
