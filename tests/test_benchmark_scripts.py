@@ -168,19 +168,26 @@ def test_lego_auto_records_the_search_and_the_whole_wall_time(results, tmp_path,
     assert "2 sizes probed, 9.0 min in all" in entry["summary"]
 
 
-def test_lego_resolution_scores_the_3600_fit_twice_smaller_and_skips_without_it(results, tmp_path, monkeypatch,
-                                                                                  capsys):
-    from benchmarks import lego
-
+def hour_fit(lego, part: str, tmp_path, monkeypatch, capsys) -> Path:
+    """Checks that ``part`` of ``benchmarks/lego.py`` says one line and records nothing without part 3600's fit, then
+    gives it a fit's folder (written by grid-3d+) in its place."""
     (tmp_path / "transforms_train.json").write_text("{}")
     monkeypatch.setattr(lego, "RUN_3600", tmp_path / "absent")
-    assert lego.main(["--data", str(tmp_path), "--parts", "resolution"]) == 0
-    assert "lego_resolution: skipped, no fit at " in capsys.readouterr().out and load_results() == {}
+    assert lego.main(["--data", str(tmp_path), "--parts", part]) == 0
+    assert f"lego_{part}: skipped, no fit at " in capsys.readouterr().out and load_results() == {}
     run = tmp_path / "run"
     run.mkdir()
     (run / "manifest.json").write_text("{}")
     (run / "metrics.json").write_text('{"recipe": "grid-3d+"}')
     monkeypatch.setattr(lego, "RUN_3600", run)
+    return run
+
+
+def test_lego_resolution_scores_the_3600_fit_twice_smaller_and_skips_without_it(results, tmp_path, monkeypatch,
+                                                                                  capsys):
+    from benchmarks import lego
+
+    hour_fit(lego, "resolution", tmp_path, monkeypatch, capsys)
     monkeypatch.setattr(lego, "scored_at_sizes", lambda r, data: {1: (30.46, 0.965, "400 x 400"),
                                                                    2: (32.16, 0.982, "200 x 200"),
                                                                    "train": (34.50, 0.980, "400 x 400")})
@@ -196,22 +203,12 @@ def test_lego_quadrature_renders_the_3600_fit_with_each_oversample_and_skips_wit
                                                                                          monkeypatch, capsys):
     """Part quadrature: one checkpoint and one dataset loaded, the test views rendered once per oversample with that
     oversample set at the time of the render; a record per oversample, and one line without the hour's fit."""
-    from types import SimpleNamespace
-
     import mitnerf.data.formats as formats
     import mitnerf.train.checkpoint as checkpoint
     import mitnerf.train.evaluate as evaluate
     from benchmarks import lego
 
-    (tmp_path / "transforms_train.json").write_text("{}")
-    monkeypatch.setattr(lego, "RUN_3600", tmp_path / "absent")
-    assert lego.main(["--data", str(tmp_path), "--parts", "quadrature"]) == 0
-    assert "lego_quadrature: skipped, no fit at " in capsys.readouterr().out and load_results() == {}
-    run = tmp_path / "run"
-    run.mkdir()
-    (run / "manifest.json").write_text("{}")
-    (run / "metrics.json").write_text('{"recipe": "grid-3d+"}')
-    monkeypatch.setattr(lego, "RUN_3600", run)
+    run = hour_fit(lego, "quadrature", tmp_path, monkeypatch, capsys)
     backend = SimpleNamespace(model_cfg=SimpleNamespace(render=SimpleNamespace(render_oversample=2)))
     loads, seen = [], []
     monkeypatch.setattr(checkpoint, "load_checkpoint", lambda r: loads.append(r) or (SimpleNamespace(backend=backend),
