@@ -155,6 +155,27 @@ def scored_with_oversamples(run: Path, data: Path) -> dict:
     return out
 
 
+def resolution_figures(run: Path, data: Path) -> tuple[dict, str]:
+    """Part ``resolution``'s values and line: :func:`scored_at_sizes` of the hour's field."""
+    got = scored_at_sizes(run, data)
+    (p1, s1, size1), (p2, s2, size2), (pt, st, _) = got[1], got[2], got["train"]
+    v = {"run": "out/lego/3600", "psnr": p1, "ssim": s1, "size": size1, "psnr_half": p2, "ssim_half": s2,
+         "size_half": size2, "gain_db": p2 - p1, "psnr_train": pt, "ssim_train": st, "gap_db": pt - p1}
+    return v, (f"the lego/3600 field on the 200 test views: {p1:.2f} dB, SSIM {s1:.3f} at {size1}; "
+               f"{p2:.2f} dB, SSIM {s2:.3f} box-filtered to {size2} ({p2 - p1:+.2f} dB): halving the pixels' "
+               f"size costs this lattice about {p2 - p1:.1f} dB, the drop to expect from {size1} to 800 x 800; "
+               f"on its own training views {pt:.2f} dB, SSIM {st:.3f} ({pt - p1:+.2f} dB over the test views: "
+               "what it fits and does not carry to new views)")
+
+
+def quadrature_figures(run: Path, data: Path) -> tuple[dict, str]:
+    """Part ``quadrature``'s values and line: :func:`scored_with_oversamples` of the hour's field."""
+    got = scored_with_oversamples(run, data)
+    return {"run": "out/lego/3600", **{f"x{k}": g for k, g in got.items()}}, (
+        "the lego/3600 field's 200 test views rendered with " + "; ".join(
+            f"{k}x its training samples: {g['psnr']:.3f} dB in {g['render_s']:.1f} s" for k, g in got.items()))
+
+
 def values_of(run: dict) -> dict:
     m = run["metrics"]
     return {"size": run["size"], "psnr": m["psnr"], "ssim": m["ssim"], "train_s": m["train_time"],
@@ -206,35 +227,13 @@ def main(argv=None) -> int:
             record_result(key, v, line, f"python benchmarks/lego.py --parts {budget} (runs: {command})",
                           recipe=v["recipe"], threads=TrainConfig().threads)
             continue
-        if budget == "resolution":
-            run = RUN_3600
-            if not (run / "manifest.json").is_file():
-                print(f"lego_resolution: skipped, no fit at {run} (run --parts 3600 first)")
-                continue
-            got = scored_at_sizes(run, args.data)
-            (p1, s1, size1), (p2, s2, size2), (pt, st, _) = got[1], got[2], got["train"]
-            v = {"run": "out/lego/3600", "psnr": p1, "ssim": s1, "size": size1, "psnr_half": p2, "ssim_half": s2,
-                 "size_half": size2, "gain_db": p2 - p1, "psnr_train": pt, "ssim_train": st, "gap_db": pt - p1}
-            line = (f"the lego/3600 field on the 200 test views: {p1:.2f} dB, SSIM {s1:.3f} at {size1}; "
-                    f"{p2:.2f} dB, SSIM {s2:.3f} box-filtered to {size2} ({p2 - p1:+.2f} dB): halving the pixels' "
-                    f"size costs this lattice about {p2 - p1:.1f} dB, the drop to expect from {size1} to 800 x 800; "
-                    f"on its own training views {pt:.2f} dB, SSIM {st:.3f} ({pt - p1:+.2f} dB over the test views: "
-                    "what it fits and does not carry to new views)")
-            print(f"lego_resolution/3600: {line}")
-            record_result("lego_resolution/3600", v, line, "python benchmarks/lego.py --parts resolution",
-                          recipe=json.loads((run / "metrics.json").read_text())["recipe"],
-                          threads=TrainConfig().threads)
-            continue
-        if budget == "quadrature":
+        if budget in ("resolution", "quadrature"):
             if not (RUN_3600 / "manifest.json").is_file():
-                print(f"lego_quadrature: skipped, no fit at {RUN_3600} (run --parts 3600 first)")
+                print(f"lego_{budget}: skipped, no fit at {RUN_3600} (run --parts 3600 first)")
                 continue
-            got = scored_with_oversamples(RUN_3600, args.data)
-            v = {"run": "out/lego/3600", **{f"x{k}": g for k, g in got.items()}}
-            line = "the lego/3600 field's 200 test views rendered with " + "; ".join(
-                f"{k}x its training samples: {g['psnr']:.3f} dB in {g['render_s']:.1f} s" for k, g in got.items())
-            print(f"lego_quadrature/3600: {line}")
-            record_result("lego_quadrature/3600", v, line, "python benchmarks/lego.py --parts quadrature",
+            v, line = (resolution_figures if budget == "resolution" else quadrature_figures)(RUN_3600, args.data)
+            print(f"lego_{budget}/3600: {line}")
+            record_result(f"lego_{budget}/3600", v, line, f"python benchmarks/lego.py --parts {budget}",
                           recipe=json.loads((RUN_3600 / "metrics.json").read_text())["recipe"],
                           threads=TrainConfig().threads)
             continue
