@@ -49,8 +49,9 @@ def build_model(cfg, dim: int, bound: float) -> Model:
 
 RENDER_CHUNK = 1 << 17
 """Rays a render launches at once through a traceable field. The occupancy sampler and the deferred colour
-(:mod:`mitnerf.render.deferred`) hold three floats per sample slot of each: ``12 N`` bytes a ray for ``N`` slots,
-192 MiB a chunk for the lego's 128. Kernels over this many rays keep both threads busy."""
+(:mod:`mitnerf.render.deferred`) hold four numbers per sample slot of each: ``16 N`` bytes a ray for ``N`` slots,
+512 MiB a chunk for the lego's 256 (64 samples, four times over in renders). Kernels over this many rays keep both
+threads busy."""
 
 
 class DrJitBackend(Backend):
