@@ -275,6 +275,41 @@ def test_early_stop_places_the_same_samples_in_both_engines_and_ends_rays_in_a_d
     assert np.all(last_all[through] > 1.8)                 # without it, the samples reach past the blob's centre
 
 
+def test_the_sampler_crosses_empty_cells_in_one_step_yet_places_the_samples_of_every_bin():
+    """A patchy 3D grid (8^3 cells, about a third occupied: empty cells beside occupied ones on every axis) and 200
+    random rays through it, 96 bins each (about 5 a cell): the sampler, which crosses an empty cell in one step,
+    places the samples of the torch twin, which looks every bin up. With 96 slots (stride 1: the renders' single
+    pass), with 8 (stride > 1, the second pass, which steps bin by bin) and with an early stop (training's count)."""
+    import torch
+
+    from mitnerf.reference.render.occupancy import OccupancyGrid as TwinGrid, occupied_samples
+
+    def patches(x, sin, where):
+        return where(sin(7.0 * x[0] + 1.0) * sin(5.0 * x[1]) * sin(3.0 * x[2] + 0.5) > 0.2, 30.0, 0.0)
+
+    cfg = OccupancyConfig(enabled=True, resolution=8, warmup=0, march_bins=96)
+    grid, twin_grid = OccupancyGrid(cfg, 3, bound=1.0), TwinGrid(cfg, 3, 1.0)
+    grid.update(lambda x: patches(x, dr.sin, dr.select), 0, 0)
+    twin_grid.load(grid.state())
+    assert 0.2 < np.mean(np.asarray(grid.occupied)) < 0.5
+    rng = np.random.default_rng(4)
+    o = rng.normal(size=(200, 3)).astype(np.float32)
+    o = 2.5 * o / np.linalg.norm(o, axis=1, keepdims=True)
+    d = rng.uniform(-0.7, 0.7, (200, 3)).astype(np.float32) - o
+    d = (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+    O, D = [Float(o[:, a]) for a in range(3)], [Float(d[:, a]) for a in range(3)]
+    for n, jitter, early_stop in ((96, False, 0.0), (8, True, 0.0), (16, True, 1e-2)):
+        ex = OccupiedSampler(*grid.lookup, n, 96, 1.0, 8, UInt32(2), jitter=jitter, early_stop=early_stop,
+                             density=lambda x: patches(x, dr.sin, dr.select)).build(O, D, 1.0, 4.5)
+        twin = occupied_samples(twin_grid, torch.from_numpy(o), torch.from_numpy(d), 1.0, 4.5, n, 2, jitter,
+                                density=lambda x: patches(x.T, torch.sin, torch.where), early_stop=early_stop)
+        count = np.asarray(ex.count)
+        assert count.max() > 1 and (n != 8 or count.max() == n)
+        np.testing.assert_allclose(np.asarray(ex.t_flat).reshape(200, n), twin.t.numpy(), rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(np.asarray(ex.delta_flat).reshape(200, n), twin.delta.numpy(), rtol=1e-5,
+                                   atol=1e-6)
+
+
 def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
     from mitnerf.data.cache import cached_dataset
     from mitnerf.data.rig import RigConfig

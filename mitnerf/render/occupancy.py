@@ -13,9 +13,11 @@ those in front, by the field's density at their centres, reaches ``-ln(early_sto
 Without it, one pass over the bins counts them and places the samples of every ray with ``K <= N`` (stride 1);
 only the rays with more occupied bins than slots pass again (the renders' time: ``benchmarks/lego.py``). Only
 the bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked up:
-the others are empty, so the samples are those of every bin. In a forward-facing or unbounded scene
-(:mod:`.space`) the grid covers the warped space the fields live in, the bins are even in the samples' spacing
-(:func:`.space.to_s`) and every bin is looked up (rays curve there: no box bounds them).
+the others are empty, so the samples are those of every bin. Where the bins are even in distance, a pass crosses
+an empty cell in one step, to the last bin whose centre lies in it (``OccupiedSampler._next_bin``). In a
+forward-facing or unbounded scene (:mod:`.space`) the grid covers the warped space the fields live in, the bins are
+even in the samples' spacing (:func:`.space.to_s`) and every bin is looked up (rays curve there: no box bounds
+them).
 Twin: :mod:`mitnerf.reference.render.occupancy`.
 """
 
@@ -172,7 +174,7 @@ class OccupiedSampler:
 
     def _bin_occupied(self, o: list, d: list, k, near, far):
         """Whether bin ``k``'s centre on the lanes' rays ``o + t d`` is in an occupied cell; that centre in the
-        grid's space; the density stretch there (1 where nothing is warped)."""
+        grid's space; the density stretch there (1 where nothing is warped); whether it is in the grid."""
         t = self._at(Float(k) + 0.5, near, far)
         x = [oi + t * di for oi, di in zip(o, d)]
         stretch = 1.0
@@ -180,7 +182,36 @@ class OccupiedSampler:
             x, stretch = self.space.warp(x, d, DRJIT)
         cell, inside = cell_index(x, self.bound, self.resolution)
         occ = inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
-        return occ, x, stretch
+        return occ, x, stretch, inside
+
+    def _faces(self, o: list, d: list, near: Float, dt: Float) -> list | None:
+        """Per ray and axis, ``(P, Q)``: the ray leaves a cell of coordinate ``c`` along that axis at ``c P + Q`` bin
+        centres (fractional; the bins are even in distance); None where bins are not (a knee, a warped space)."""
+        if self.space.knee is not None or self.space.warped:
+            return None
+        h, b, out = 2.0 * self.bound / self.resolution, self.bound, []
+        for oi, di in zip(o, d):
+            moving = dr.abs(di) > 1e-12
+            inv = 1.0 / dr.select(moving, di, 1.0)
+            face0 = dr.select(di > 0.0, h, 0.0) - b - oi         # the face it leaves cell 0 by, less the origin
+            out.append((dr.select(moving, h * inv / dt, 0.0),
+                        dr.select(moving, (face0 * inv - near) / dt - 0.5, np.inf)))
+        return out
+
+    def _next_bin(self, faces: list | None, k: UInt32, x: list, empty, end: UInt32) -> UInt32:
+        """The next bin to look up after bin ``k``, whose centre ``x`` is in an ``empty`` cell or not: past an empty
+        cell, the last bin whose centre lies before the ray leaves it (the bins between lie in it, empty too: a cell
+        is convex), so a march crosses an empty cell in one step, not in one per bin; else ``k + 1``; never past
+        ``end``. The bins looked up, and so the samples, are those of a step by one (to rounding at a cell's faces).
+        ``faces``: :meth:`_faces`; None: a step by one."""
+        if faces is None:
+            return k + 1
+        res, leave = self.resolution, Float(np.inf)
+        for xi, (P, Q) in zip(x, faces):
+            c = dr.floor(dr.clip((xi * (1.0 / self.bound) + 1.0) * (0.5 * res), 0.0, res - 1.0))    # as cell_index
+            leave = dr.minimum(leave, dr.fma(c, P, Q))
+        last = UInt32(dr.clip(leave, 0.0, float(self.bins)))     # floor: its centre is at most where the ray leaves
+        return dr.select(empty, dr.minimum(dr.maximum(k + 1, last), dr.maximum(end, k + 1)), k + 1)
 
     def _bins(self, origins: list, directions: list, near: Float, dt: Float) -> tuple[UInt32, UInt32]:
         """Per ray, the first and one past the last bin that can be occupied: those whose centres lie in the
@@ -209,9 +240,10 @@ class OccupiedSampler:
         passed."""
         o, d, ray, first, near_r, far_r, dt, t_out, d_out = lanes
         stride, groups = (None, None) if K is None else self._groups(K)
+        faces = None if clear else self._faces(o, d, near_r, dt)
 
         def place_body(k, rank):
-            occ = self._bin_occupied(o, d, k, near_r, far_r)[0]
+            occ, x, _, inside = self._bin_occupied(o, d, k, near_r, far_r)
             j = rank if stride is None else rank // stride
             take = occ & (j < self.n)
             if stride is not None:
@@ -225,7 +257,8 @@ class OccupiedSampler:
                 c = groups + (k - first)
                 dr.scatter(t_out, far_r, ray * self.n + c, c < self.n)
                 dr.scatter(d_out, 0.0, ray * self.n + c, c < self.n)
-            return k + 1, rank + dr.select(occ, 1, 0)
+                return k + 1, rank + dr.select(occ, 1, 0)       # a slot per bin: every bin is visited
+            return self._next_bin(faces, k, x, inside & ~occ, end), rank + dr.select(occ, 1, 0)
 
         _, rank = dr.while_loop((UInt32(first), dr.zeros(UInt32, dr.width(ray))), lambda k, r: k < end, place_body,
                                 label="occupancy_place")
@@ -263,14 +296,15 @@ class OccupiedSampler:
             dr.eval(K)                                  # else the second pass's kernel runs the first pass again
             self._place(lanes, dr.select(K > self.n, end, first), K, clear=True)
         else:
-            tau_end = float(-np.log(self.early_stop))
+            tau_end, faces = float(-np.log(self.early_stop)), self._faces(o, d, near_r, dt)
 
             def count_body(k, count, tau):
-                occ, x, stretch = self._bin_occupied(o, d, k, near_r, far_r)
+                occ, x, stretch, inside = self._bin_occupied(o, d, k, near_r, far_r)
                 width = self._span(k, 1, near_r, far_r, dt) * stretch
                 sigma = dr.if_stmt((x,), occ, lambda x: dr.detach(self.density(x)),     # gathers of occupied bins
                                    lambda x: dr.zeros(Float, dr.width(x[0])), label="early_stop")
-                return k + 1, count + dr.select(occ, 1, 0), tau + dr.maximum(sigma, 0.0) * width
+                return (self._next_bin(faces, k, x, inside & ~occ, end), count + dr.select(occ, 1, 0),
+                        tau + dr.maximum(sigma, 0.0) * width)
 
             end, K, _ = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays), dr.zeros(Float, n_rays)),
                                       lambda k, c, tau: (k < end) & (tau < tau_end), count_body,
