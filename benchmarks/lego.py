@@ -25,7 +25,11 @@ lattice with one set of view harmonics shared by the three channels (``GridSetti
 floats, so more steps in the hour and less memory. The default draws most of a batch's rays where the field's last
 errors were (``TrainConfig.mining``, ``Sizing.mining``); part ``uniform`` (``lego/uniform/600``) runs part ``600``'s
 command with ``--set mining=0``: twice the rays, drawn uniformly, as before mining; part ``uniform-hour``
-(``lego/uniform/3600``) the same beside part ``3600``. Part ``samples128`` (``lego/samples128/3600``) runs part
+(``lego/uniform/3600``) the same beside part ``3600``. The lego's training rays show white where its images are empty;
+part ``random`` (``lego/random/600``) runs part ``600``'s command with ``--set background=random``: a uniform colour
+per training ray where the image's alpha lets it through (as instant-ngp trains), so the field cannot paint white
+into empty space; evaluated over white all the same; part ``random-hour`` (``lego/random/3600``) the same beside part
+``3600``. Part ``samples128`` (``lego/samples128/3600``) runs part
 ``3600``'s command with ``--set n_coarse=128``: twice the samples a ray, so fewer steps in the hour; part
 ``800-samples128`` (``lego800/samples128``) measures its memory and evaluation time at 800 x 800, beside part ``800``'s.
 Part ``fine`` (``lego/fine/3600``) runs part ``3600``'s command on a finer lattice (a 175^3 cube's floats rather than
@@ -36,7 +40,7 @@ pair is measured on one machine.
 this CPU (``benchmarks/nerfacto.py``). Where the data is absent, one line says so and nothing runs.
 
     python benchmarks/lego.py [--parts 600 800 3600 resolution quadrature auto single grey uniform uniform-hour
-                               samples128 800-samples128 fine 800-fine]
+                               random random-hour samples128 800-samples128 fine 800-fine]
                               [--data ../shared/data/nerf_synthetic/lego_400]
 """
 
@@ -55,7 +59,7 @@ else:                                  # run as python benchmarks/lego.py
 
 DATA = ROOT.parent / "shared" / "data" / "nerf_synthetic" / "lego_400"
 PARTS = ("600", "800", "3600", "resolution", "quadrature", "auto", "single", "grey", "uniform", "uniform-hour",
-         "samples128", "800-samples128", "fine", "800-fine")
+         "random", "random-hour", "samples128", "800-samples128", "fine", "800-fine")
 BUDGET_800 = "150"
 """Seconds of training at 800 x 800: past the last coarse-to-fine step, where the grid and its memory are whole."""
 RUN_3600 = ROOT / "out" / "lego" / "3600"
@@ -66,13 +70,16 @@ BUDGET_AUTO = "120"
 """Seconds of each of ``fit --auto``'s probes and of the chosen recipe's training (part ``auto``)."""
 VARIANTS = {"single": ("single", "600", ("density_refine=1",)), "grey": ("grey", "3600", ("view_color=grey",)),
             "uniform": ("uniform", "600", ("mining=0",)), "uniform-hour": ("uniform", "3600", ("mining=0",)),
+            "random": ("random", "600", ("background=random",)),
+            "random-hour": ("random", "3600", ("background=random",)),
             "samples128": ("samples128", "3600", ("n_coarse=128",)),
             "fine": ("fine", "3600", ("resolution=213", "density_refine=2", "render_oversample=4"))}
 """Parts that run a budget's plain command with ``--set`` settings: ``(row, seconds, settings)``, recorded as
 ``lego/<row>/<seconds>``; ``single``: one lattice for density and colour, against part ``600``'s default; ``grey``: grey
 view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice the rays),
-against parts ``600``'s and ``3600``'s mined batches; ``samples128``: twice the samples a ray, against part ``3600``'s;
-``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against the default's
+against parts ``600``'s and ``3600``'s mined batches; ``random`` and ``random-hour``: a random background behind each
+training ray, against parts ``600``'s and ``3600``'s white; ``samples128``: twice the samples a ray, against part
+``3600``'s; ``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against the default's
 197 from 161^3) and four times the training samples in rendering (the recipe's own value), against part ``3600``'s."""
 UPSAMPLED = {"800": ("lego800/upsampled", ()),
              "800-samples128": ("lego800/samples128", VARIANTS["samples128"][2]),
@@ -199,6 +206,7 @@ def main(argv=None) -> int:
                         "views), quadrature (the 3600 s field rendered with 1, 2, 4 and 8 times its samples), "
                         "single (part 600 with one lattice for density and colour), grey (part 3600 with "
                         "grey view harmonics), uniform and uniform-hour (parts 600 and 3600 with uniform draws), "
+                        "random and random-hour (parts 600 and 3600 with a random background in training), "
                         "samples128 and 800-samples128 (parts 3600 and 800 with 128 samples a ray), fine and "
                         "800-fine (parts 3600 and 800 with a finer lattice and more samples in rendering)")
     p.add_argument("--data", type=Path, default=DATA, help="the lego_400 folder")

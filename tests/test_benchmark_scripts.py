@@ -110,7 +110,8 @@ def test_lego_records_each_budget_and_skips_without_the_data(results, tmp_path, 
 
 def test_lego_single_grey_and_uniform_run_a_budgets_command_with_one_setting(results, tmp_path, monkeypatch):
     """Part single: part 600's fit with ``--set density_refine=1``; part grey: part 3600's with ``--set
-    view_color=grey``; parts uniform and uniform-hour: parts 600's and 3600's with ``--set mining=0``; part
+    view_color=grey``; parts uniform and uniform-hour: parts 600's and 3600's with ``--set mining=0``; parts random and
+    random-hour: the same with ``--set background=random``; part
     samples128: part 3600's with ``--set n_coarse=128``; part fine: part 3600's with three settings, a ``--set``
     each; each in its own folder, recorded beside the default."""
     from benchmarks import lego
@@ -127,14 +128,17 @@ def test_lego_single_grey_and_uniform_run_a_budgets_command_with_one_setting(res
 
     monkeypatch.setattr(lego, "fit", fake_fit)
     assert lego.main(["--data", str(tmp_path), "--parts", "single", "grey", "uniform",
-                      "uniform-hour", "samples128", "fine"]) == 0
+                      "uniform-hour", "random", "random-hour", "samples128", "fine"]) == 0
     assert seen == [("600", "single-600", ("--set", "density_refine=1")),
                     ("3600", "grey-3600", ("--set", "view_color=grey")), ("600", "uniform-600", ("--set", "mining=0")),
                     ("3600", "uniform-3600", ("--set", "mining=0")),
+                    ("600", "random-600", ("--set", "background=random")),
+                    ("3600", "random-3600", ("--set", "background=random")),
                     ("3600", "samples128-3600", ("--set", "n_coarse=128")),
                     ("3600", "fine-3600", ("--set", "resolution=213", "--set", "density_refine=2", "--set",
                                            "render_oversample=4"))]
-    assert {"lego/grey/3600", "lego/uniform/600", "lego/uniform/3600", "lego/samples128/3600",
+    assert {"lego/grey/3600", "lego/uniform/600", "lego/uniform/3600", "lego/random/600", "lego/random/3600",
+            "lego/samples128/3600",
             "lego/fine/3600"} <= set(load_results())
     entry = load_results()["lego/single/600"]
     assert entry["values"]["psnr"] == 31.0 and "density_refine=1" in entry["command"]
