@@ -79,8 +79,9 @@ VARIANTS = {"single": ("single", "600", ("density_refine=1",)), "grey": ("grey",
 view harmonics, against part ``3600``'s; ``uniform`` and ``uniform-hour``: every batch drawn uniformly (twice the rays),
 against parts ``600``'s and ``3600``'s mined batches; ``random`` and ``random-hour``: a random background behind each
 training ray, against parts ``600``'s and ``3600``'s white; ``samples128``: twice the samples a ray, against part
-``3600``'s; ``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against the default's
-197 from 161^3) and four times the training samples in rendering (the recipe's own value), against part ``3600``'s."""
+``3600``'s; ``fine``: the lattice that a 175^3 cube's floats give (213 vertices on the lego's fullest axis, against
+the default's 197 from 161^3) and four times the training samples in rendering (the recipe's own value), against part
+``3600``'s."""
 UPSAMPLED = {"800": ("lego800/upsampled", ()),
              "800-samples128": ("lego800/samples128", VARIANTS["samples128"][2]),
              "800-fine": ("lego800/fine", ("resolution=209", *VARIANTS["fine"][2][1:]))}
