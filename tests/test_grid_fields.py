@@ -310,6 +310,37 @@ def test_the_sampler_crosses_empty_cells_in_one_step_yet_places_the_samples_of_e
                                    atol=1e-6)
 
 
+class SteppingSampler(OccupiedSampler):
+    """The sampler looking every bin up (no cell crossed in one step)."""
+
+    def _faces(self, d, dt):
+        return None
+
+
+def test_rays_nearly_along_a_cell_face_or_starting_in_the_grid_skip_no_occupied_bin():
+    """Two occupied cells of an 8^3 grid over [-1, 1]^3: (3, 4, 4) (x in [-0.25, 0], y, z in [0, 0.25]) and (7, 0, 0).
+    Rays along z that drift across the face x = 0 by 4e-8 to 1e-5 a unit (so within a cell of it: one direction
+    component tiny, where an exit computed far from the ray's point would cancel two large numbers), crossing it at
+    19 points along the occupied cell; and 100 random rays from inside the grid (near 0). Each places the samples of
+    the sampler that looks every bin up."""
+    occupied = np.zeros(8 ** 3, np.float32)
+    occupied[[3 + 8 * 4 + 64 * 4, 7]] = 1.0
+    box = Float([-0.25, -1.0, -1.0, 1.0, 0.25, 0.25])
+    rows = [(np.array([-dx * (2.5 + 0.25 * f), 0.1, -2.5]), np.array([dx, 0.0, 1.0]))
+            for dx in (-4e-8, -1e-7, -3e-7, -1e-6, -1e-5) for f in np.linspace(0.05, 0.95, 19)]
+    rng = np.random.default_rng(3)
+    inner = rng.uniform(-0.9, 0.9, (100, 3))
+    aim = rng.normal(size=(100, 3))
+    for o, d, near, far in ((np.array([r[0] for r in rows]), np.array([r[1] for r in rows]), 1.0, 4.5),
+                            (inner, aim / np.linalg.norm(aim, axis=1, keepdims=True), 0.0, 3.5)):
+        O, D = ([Float(v[:, a].astype(np.float32)) for a in range(3)] for v in (o, d))
+        got, every = (S(Float(occupied), box, 96, 96, 1.0, 8, UInt32(0), jitter=False).build(O, D, near, far)
+                      for S in (OccupiedSampler, SteppingSampler))
+        assert np.asarray(every.count).max() >= 2
+        for a, b in ((got.count, every.count), (got.t_flat, every.t_flat), (got.delta_flat, every.delta_flat)):
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
 def test_auto_sizing_gives_the_square_a_smaller_model_than_the_bunny():
     from mitnerf.data.cache import cached_dataset
     from mitnerf.data.rig import RigConfig

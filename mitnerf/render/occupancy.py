@@ -14,7 +14,8 @@ Without it, one pass over the bins counts them and places the samples of every r
 only the rays with more occupied bins than slots pass again (the renders' time: ``benchmarks/lego.py``). Only
 the bins within the box around the occupied cells (:attr:`OccupancyGrid.box`, one bin of margin) are looked up:
 the others are empty, so the samples are those of every bin. Where the bins are even in distance, a pass crosses
-an empty cell in one step, to the last bin whose centre lies in it (``OccupiedSampler._next_bin``). In a
+an empty cell in one step, to the last bin whose centre lies at most where the ray leaves it
+(``OccupiedSampler._next_bin``; the second pass, which empties a slot per bin, steps by one). In a
 forward-facing or unbounded scene (:mod:`.space`) the grid covers the warped space the fields live in, the bins are
 even in the samples' spacing (:func:`.space.to_s`) and every bin is looked up (rays curve there: no box bounds
 them).
@@ -184,33 +185,33 @@ class OccupiedSampler:
         occ = inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
         return occ, x, stretch, inside
 
-    def _faces(self, o: list, d: list, near: Float, dt: Float) -> list | None:
-        """Per ray and axis, ``(P, Q)``: the ray leaves a cell of coordinate ``c`` along that axis at ``c P + Q`` bin
-        centres (fractional; the bins are even in distance); None where bins are not (a knee, a warped space)."""
+    def _faces(self, d: list, dt: Float) -> list | None:
+        """Per ray and axis, ``(s, r, moving)``: a centre ``x`` in a cell of coordinate ``c`` along that axis lies
+        ``(c h + s - x) r`` bins before the ray leaves the cell that way (``h`` a cell's side); ``moving`` is false
+        where the ray runs along the axis's faces (it never leaves that way). None where the bins are not even in
+        distance (a knee, a warped space)."""
         if self.space.knee is not None or self.space.warped:
             return None
-        h, b, out = 2.0 * self.bound / self.resolution, self.bound, []
-        for oi, di in zip(o, d):
+        h, out = 2.0 * self.bound / self.resolution, []
+        for di in d:
             moving = dr.abs(di) > 1e-12
-            inv = 1.0 / dr.select(moving, di, 1.0)
-            face0 = dr.select(di > 0.0, h, 0.0) - b - oi         # the face it leaves cell 0 by, less the origin
-            out.append((dr.select(moving, h * inv / dt, 0.0),
-                        dr.select(moving, (face0 * inv - near) / dt - 0.5, np.inf)))
+            out.append((dr.select(di > 0.0, h, 0.0) - self.bound, dr.select(moving, 1.0 / (di * dt), 0.0), moving))
         return out
 
     def _next_bin(self, faces: list | None, k: UInt32, x: list, empty, end: UInt32) -> UInt32:
         """The next bin to look up after bin ``k``, whose centre ``x`` is in an ``empty`` cell or not: past an empty
-        cell, the last bin whose centre lies before the ray leaves it (the bins between lie in it, empty too: a cell
-        is convex), so a march crosses an empty cell in one step, not in one per bin; else ``k + 1``; never past
-        ``end``. The bins looked up, and so the samples, are those of a step by one (to rounding at a cell's faces).
-        ``faces``: :meth:`_faces`; None: a step by one."""
+        cell, the last bin whose centre lies at most where the ray leaves it (the bins before lie in it, empty too: a
+        cell is convex), so a march crosses an empty cell in one step, not in one per bin; else ``k + 1``; never past
+        ``end``. The exit is measured from ``x`` (a short distance over the direction, so a ray nearly parallel to a
+        face does not subtract two large numbers); the bins looked up, and so the samples, are those of a step by
+        one. ``faces``: :meth:`_faces`; None: a step by one."""
         if faces is None:
             return k + 1
-        res, leave = self.resolution, Float(np.inf)
-        for xi, (P, Q) in zip(x, faces):
+        res, h, leave = self.resolution, 2.0 * self.bound / self.resolution, Float(np.inf)
+        for xi, (s, r, moving) in zip(x, faces):
             c = dr.floor(dr.clip((xi * (1.0 / self.bound) + 1.0) * (0.5 * res), 0.0, res - 1.0))    # as cell_index
-            leave = dr.minimum(leave, dr.fma(c, P, Q))
-        last = UInt32(dr.clip(leave, 0.0, float(self.bins)))     # floor: its centre is at most where the ray leaves
+            leave = dr.minimum(leave, dr.select(moving, (dr.fma(c, h, s) - xi) * r, np.inf))
+        last = UInt32(dr.clip(leave + (Float(k) + 0.5), 0.0, float(self.bins)))   # floor: centre at most the exit
         return dr.select(empty, dr.minimum(dr.maximum(k + 1, last), dr.maximum(end, k + 1)), k + 1)
 
     def _bins(self, origins: list, directions: list, near: Float, dt: Float) -> tuple[UInt32, UInt32]:
@@ -240,7 +241,7 @@ class OccupiedSampler:
         passed."""
         o, d, ray, first, near_r, far_r, dt, t_out, d_out = lanes
         stride, groups = (None, None) if K is None else self._groups(K)
-        faces = None if clear else self._faces(o, d, near_r, dt)
+        faces = None if clear else self._faces(d, dt)
 
         def place_body(k, rank):
             occ, x, _, inside = self._bin_occupied(o, d, k, near_r, far_r)
@@ -296,7 +297,7 @@ class OccupiedSampler:
             dr.eval(K)                                  # else the second pass's kernel runs the first pass again
             self._place(lanes, dr.select(K > self.n, end, first), K, clear=True)
         else:
-            tau_end, faces = float(-np.log(self.early_stop)), self._faces(o, d, near_r, dt)
+            tau_end, faces = float(-np.log(self.early_stop)), self._faces(d, dt)
 
             def count_body(k, count, tau):
                 occ, x, stretch, inside = self._bin_occupied(o, d, k, near_r, far_r)
