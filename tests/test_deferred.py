@@ -74,20 +74,22 @@ def test_rays_that_keep_no_sample_show_the_background():
 
 
 def test_packed_samples_reach_their_rays_past_rays_that_keep_none():
-    # four rays, samples at t = 1, 2, 3 (far 4, delta 1), background (0.1, 0.2, 0.3):
-    #   rays 0 and 2: sigma 0, nothing kept: C = background
+    # five rays, samples at t = 1, 2, 3 (far 4, delta 1), background (0.1, 0.2, 0.3):
+    #   rays 0, 2 and 4 (first, between, last): sigma 0, nothing kept: C = background
     #   ray 1: sigma [1, 5e-5, 1], red, white, green: w0 = 1 - e^-1 = 0.632121; w1 = e^-1 (1 - e^-5e-5) = 1.8e-5 <=
     #     w_min, skipped; w2 = e^-1.00005 (1 - e^-1) = 0.232534: C = (w0, w2, 0) + e^-2.00005 background
     #   ray 3: sigma [0, 0, 2], blue last: w2 = 1 - e^-2 = 0.864665: C = (0, 0, w2) + e^-2 background
-    sigma = [[0.0] * 3, [1.0, 5e-5, 1.0], [0.0] * 3, [0.0, 0.0, 2.0]]
-    rgb = [[[1, 1, 1]] * 3, [[1, 0, 0], [1, 1, 1], [0, 1, 0]], [[1, 1, 1]] * 3, [[1, 1, 1], [1, 1, 1], [0, 0, 1]]]
-    field = DeferringField(sigma, rgb, [[1.0, 2.0, 3.0]] * 4)
-    o, d = rays(4)
+    sigma = [[0.0] * 3, [1.0, 5e-5, 1.0], [0.0] * 3, [0.0, 0.0, 2.0], [0.0] * 3]
+    rgb = [[[1, 1, 1]] * 3, [[1, 0, 0], [1, 1, 1], [0, 1, 0]], [[1, 1, 1]] * 3, [[1, 1, 1], [1, 1, 1], [0, 0, 1]],
+           [[1, 1, 1]] * 3]
+    field = DeferringField(sigma, rgb, [[1.0, 2.0, 3.0]] * 5)
+    o, d = rays(5)
     bg = np.array([0.1, 0.2, 0.3])
-    out = volume_render(field, field.params, o, d, 0.5, 4.0, Explicit(Float([1.0, 2.0, 3.0] * 4), 3), tuple(bg),
+    out = volume_render(field, field.params, o, d, 0.5, 4.0, Explicit(Float([1.0, 2.0, 3.0] * 5), 3), tuple(bg),
                         stop=1e-4)
     e = math.exp
-    expected = [bg, [1 - e(-1), e(-1.00005) * (1 - e(-1)), 0] + e(-2.00005) * bg, bg, [0, 0, 1 - e(-2)] + e(-2) * bg]
+    expected = [bg, [1 - e(-1), e(-1.00005) * (1 - e(-1)), 0] + e(-2.00005) * bg, bg, [0, 0, 1 - e(-2)] + e(-2) * bg,
+                bg]
     np.testing.assert_allclose(colours(out), expected, rtol=1e-5, atol=1e-7)
 
 
