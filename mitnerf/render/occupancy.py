@@ -65,16 +65,27 @@ class OccupancyConfig:
     tensor-mode networks) spreads them too. ``benchmarks/lego.py``."""
 
 
-def cell_index(x: list, bound: float, res: int):
-    """Flat cell index of points ``x`` (D arrays) and whether they lie inside the grid."""
-    index, stride, inside = UInt32(0), 1, None
+def cell_coords(x: list, bound: float, res: int) -> tuple[list, object]:
+    """The cell of points ``x`` (D arrays) along each axis (``UInt32``, clamped to the grid) and whether they lie
+    inside the grid."""
+    coords, inside = [], None
     for xi in x:
         u = (xi * (1.0 / bound) + 1.0) * (0.5 * res)
         ok = (u >= 0.0) & (u < res)
         inside = ok if inside is None else inside & ok
-        index = index + UInt32(dr.clip(u, 0.0, res - 1.0)) * stride
-        stride *= res
-    return index, inside
+        coords.append(UInt32(dr.clip(u, 0.0, res - 1.0)))
+    return coords, inside
+
+
+def flat_index(coords: list, res: int) -> UInt32:
+    """The flat index (x fastest) of the cells ``coords`` (:func:`cell_coords`)."""
+    return sum((c * res ** a for a, c in enumerate(coords)), UInt32(0))
+
+
+def cell_index(x: list, bound: float, res: int):
+    """Flat cell index of points ``x`` (D arrays) and whether they lie inside the grid."""
+    coords, inside = cell_coords(x, bound, res)
+    return flat_index(coords, res), inside
 
 
 class OccupancyGrid:
@@ -175,15 +186,16 @@ class OccupiedSampler:
 
     def _bin_occupied(self, o: list, d: list, k, near, far):
         """Whether bin ``k``'s centre on the lanes' rays ``o + t d`` is in an occupied cell; that centre in the
-        grid's space; the density stretch there (1 where nothing is warped); whether it is in the grid."""
+        grid's space; the density stretch there (1 where nothing is warped); whether it is in the grid; its cell
+        along each axis (:func:`cell_coords`)."""
         t = self._at(Float(k) + 0.5, near, far)
         x = [oi + t * di for oi, di in zip(o, d)]
         stretch = 1.0
         if self.space.warped:
             x, stretch = self.space.warp(x, d, DRJIT)
-        cell, inside = cell_index(x, self.bound, self.resolution)
-        occ = inside & (dr.gather(Float, self.occupied, cell, inside) > 0.5)
-        return occ, x, stretch, inside
+        coords, inside = cell_coords(x, self.bound, self.resolution)
+        occ = inside & (dr.gather(Float, self.occupied, flat_index(coords, self.resolution), inside) > 0.5)
+        return occ, x, stretch, inside, coords
 
     def _faces(self, d: list, dt: Float) -> list | None:
         """Per ray and axis, ``(s, r, moving)``: a centre ``x`` in a cell of coordinate ``c`` along that axis lies
@@ -198,19 +210,18 @@ class OccupiedSampler:
             out.append((dr.select(di > 0.0, h, 0.0) - self.bound, dr.select(moving, 1.0 / (di * dt), 0.0), moving))
         return out
 
-    def _next_bin(self, faces: list | None, k: UInt32, x: list, empty, end: UInt32) -> UInt32:
-        """The next bin to look up after bin ``k``, whose centre ``x`` is in an ``empty`` cell or not: past an empty
-        cell, the last bin whose centre lies at most where the ray leaves it (the bins before lie in it, empty too: a
-        cell is convex), so a march crosses an empty cell in one step, not in one per bin; else ``k + 1``; never past
-        ``end``. The exit is measured from ``x`` (a short distance over the direction, so a ray nearly parallel to a
-        face does not subtract two large numbers); the bins looked up, and so the samples, are those of a step by
-        one. ``faces``: :meth:`_faces`; None: a step by one."""
+    def _next_bin(self, faces: list | None, k: UInt32, x: list, coords: list, empty, end: UInt32) -> UInt32:
+        """The next bin to look up after bin ``k``, whose centre ``x`` is in cell ``coords`` (:func:`cell_coords`),
+        an ``empty`` one or not: past an empty cell, the last bin whose centre lies at most where the ray leaves it
+        (the bins before lie in it, empty too: a cell is convex), so a march crosses an empty cell in one step, not
+        in one per bin; else ``k + 1``; never past ``end``. The exit is measured from ``x`` (a short distance over
+        the direction, so a ray nearly parallel to a face does not subtract two large numbers); the bins looked up,
+        and so the samples, are those of a step by one. ``faces``: :meth:`_faces`; None: a step by one."""
         if faces is None:
             return k + 1
-        res, h, leave = self.resolution, 2.0 * self.bound / self.resolution, Float(np.inf)
-        for xi, (s, r, moving) in zip(x, faces):
-            c = dr.floor(dr.clip((xi * (1.0 / self.bound) + 1.0) * (0.5 * res), 0.0, res - 1.0))    # as cell_index
-            leave = dr.minimum(leave, dr.select(moving, (dr.fma(c, h, s) - xi) * r, np.inf))
+        h, leave = 2.0 * self.bound / self.resolution, Float(np.inf)
+        for xi, c, (s, r, moving) in zip(x, coords, faces):
+            leave = dr.minimum(leave, dr.select(moving, (dr.fma(Float(c), h, s) - xi) * r, np.inf))
         last = UInt32(dr.clip(leave + (Float(k) + 0.5), 0.0, float(self.bins)))   # floor: centre at most the exit
         return dr.select(empty, dr.minimum(dr.maximum(k + 1, last), dr.maximum(end, k + 1)), k + 1)
 
@@ -244,7 +255,7 @@ class OccupiedSampler:
         faces = None if clear else self._faces(d, dt)
 
         def place_body(k, rank):
-            occ, x, _, inside = self._bin_occupied(o, d, k, near_r, far_r)
+            occ, x, _, inside, coords = self._bin_occupied(o, d, k, near_r, far_r)
             j = rank if stride is None else rank // stride
             take = occ & (j < self.n)
             if stride is not None:
@@ -259,7 +270,7 @@ class OccupiedSampler:
                 dr.scatter(t_out, far_r, ray * self.n + c, c < self.n)
                 dr.scatter(d_out, 0.0, ray * self.n + c, c < self.n)
                 return k + 1, rank + dr.select(occ, 1, 0)       # a slot per bin: every bin is visited
-            return self._next_bin(faces, k, x, inside & ~occ, end), rank + dr.select(occ, 1, 0)
+            return self._next_bin(faces, k, x, coords, inside & ~occ, end), rank + dr.select(occ, 1, 0)
 
         _, rank = dr.while_loop((UInt32(first), dr.zeros(UInt32, dr.width(ray))), lambda k, r: k < end, place_body,
                                 label="occupancy_place")
@@ -300,11 +311,11 @@ class OccupiedSampler:
             tau_end, faces = float(-np.log(self.early_stop)), self._faces(d, dt)
 
             def count_body(k, count, tau):
-                occ, x, stretch, inside = self._bin_occupied(o, d, k, near_r, far_r)
+                occ, x, stretch, inside, coords = self._bin_occupied(o, d, k, near_r, far_r)
                 width = self._span(k, 1, near_r, far_r, dt) * stretch
                 sigma = dr.if_stmt((x,), occ, lambda x: dr.detach(self.density(x)),     # gathers of occupied bins
                                    lambda x: dr.zeros(Float, dr.width(x[0])), label="early_stop")
-                return (self._next_bin(faces, k, x, inside & ~occ, end), count + dr.select(occ, 1, 0),
+                return (self._next_bin(faces, k, x, coords, inside & ~occ, end), count + dr.select(occ, 1, 0),
                         tau + dr.maximum(sigma, 0.0) * width)
 
             end, K, _ = dr.while_loop((UInt32(first), dr.zeros(UInt32, n_rays), dr.zeros(Float, n_rays)),
