@@ -45,6 +45,8 @@ from mitnerf.train.recipes import get_recipe
 
 data, lean, settings = sys.argv[1], sys.argv[2] == "lean", json.loads(sys.argv[3])
 backend_drjit.LEAN_ADAM_ABOVE = 0 if lean else 1 << 62
+if len(sys.argv) > 4:
+    backend_drjit.EXPAND_BYTES = int(sys.argv[4])
 clock, n_params = {}, []
 step = backend_drjit.DrJitBackend.step
 
@@ -63,8 +65,11 @@ print(json.dumps({"steps_per_s": 100 / (clock[120] - clock[20]), "params": n_par
 """
 
 
-def measure(data: Path, adam: str, settings: dict) -> dict:
-    return child(CHILD, data, adam, json.dumps(settings))
+def measure(data: Path, adam: str, settings: dict, expand_bytes: int | None = None) -> dict:
+    """Steps a second of steps 20 to 120 on the whole lattice, its parameters and the peak memory, in a fresh process:
+    Adam's launch (``adam="fused"``) or the lean step; ``expand_bytes``: the engine's
+    :data:`~mitnerf.train.backend_drjit.EXPAND_BYTES` (None: its own)."""
+    return child(CHILD, data, adam, json.dumps(settings), *(() if expand_bytes is None else (expand_bytes,)))
 
 
 def main(argv=None) -> int:

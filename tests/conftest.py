@@ -41,6 +41,14 @@ def vase_small():
                                                      **noise_preset(1.0)), progress=False)
 
 
+@pytest.fixture
+def results(tmp_path, monkeypatch):
+    """A fresh ``results.json`` for a benchmark script's bookkeeping (``MITNERF_RESULTS``)."""
+    path = tmp_path / "results.json"
+    monkeypatch.setenv("MITNERF_RESULTS", str(path))
+    return path
+
+
 def small(name: str = "vanilla-2d", **overrides):
     """A recipe shrunk for tests: short, quiet, small."""
     from mitnerf.train.recipes import get_recipe

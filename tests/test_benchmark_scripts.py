@@ -18,13 +18,6 @@ def fake_row(ds, recipe, label, extra_time=0.0):
 
 
 @pytest.fixture
-def results(tmp_path, monkeypatch):
-    path = tmp_path / "results.json"
-    monkeypatch.setenv("MITNERF_RESULTS", str(path))
-    return path
-
-
-@pytest.fixture
 def fit_table(monkeypatch):
     """The fit table script with its datasets and fits faked."""
     from benchmarks import fit_table
@@ -364,33 +357,3 @@ def test_render_records_both_modes_per_size_and_skips_without_the_data(results, 
     v = load_results()["render/lego"]["values"]["400"]
     assert v["fused_render_s"] == 42.0 and v["deferred_render_s"] == 30.0 and v["ratio"] == pytest.approx(1.4)
     assert "rendered in 30.0 s deferred, 42.0 s fused (1.40x)" in load_results()["render/lego"]["summary"]
-
-
-def test_records_alternates_packets_and_floats_per_case_and_skips_without_the_data(results, tmp_path, monkeypatch,
-                                                                                    capsys):
-    """Each case's training steps alternate their order over the repeats; the medians, their ratio and the peaks
-    are recorded under ``records/lego``, each case's settings passed with ``color_packets`` on and off."""
-    from benchmarks import records
-
-    assert records.main(["--data", str(tmp_path / "absent")]) == 0
-    assert capsys.readouterr().out.startswith("records: no lego at ")
-    assert load_results() == {}
-    (tmp_path / "transforms_train.json").write_text("{}")
-    rates = {True: iter([4.0, 4.4, 3.0, 3.2]), False: iter([3.6, 3.8, 2.0, 2.2])}
-    calls = []
-
-    def fake_measure(data, adam, settings):
-        calls.append((adam, settings))
-        return {"steps_per_s": next(rates[settings["color_packets"]]), "params": 54_000_000,
-                "peak_gib": 2.5 if settings["color_packets"] else 2.4}
-
-    monkeypatch.setattr(records, "measure", fake_measure)
-    assert records.main(["--data", str(tmp_path), "--repeats", "2"]) == 0
-    assert [s["color_packets"] for _, s in calls] == [True, False, False, True] * 2
-    assert {a for a, _ in calls} == {"lean"} and calls[4][1] == {"sh_degree": 2, "color_packets": True}
-    v = load_results()["records/lego"]["values"]
-    assert v["degree 1"]["packets_steps_per_s"] == pytest.approx(4.2)
-    assert v["degree 1"]["floats_steps_per_s"] == pytest.approx(3.7)
-    assert v["degree 2"]["step_ratio"] == pytest.approx(3.1 / 2.1)
-    assert "in packets 4.20 steps/s, peak 2.50 GiB; float by float 3.70 steps/s" in \
-        load_results()["records/lego"]["summary"]

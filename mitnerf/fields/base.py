@@ -66,9 +66,10 @@ class Field(abc.ABC):
     freezable: bool = True
     """A training step through the field can be recorded with ``dr.freeze``."""
     scattered: bool = False
-    """The rays of a SIMD packet seldom touch the same parameters (a fine lattice): the adjoint's scatter-adds
-    then go without Dr.Jit's per-packet pre-reduction (``JitFlag.ScatterReduceLocal``), which costs more than it
-    saves there; a network's weights, which every lane touches, keep it."""
+    """The rays of a SIMD packet seldom touch the same parameters (a fine lattice): the adjoint's atomic scatter-adds
+    (into arrays too large for a gradient copy per thread, :data:`~mitnerf.train.backend_drjit.EXPAND_BYTES`) then
+    go without Dr.Jit's per-packet pre-reduction (``JitFlag.ScatterReduceLocal``), which costs more than it saves
+    there; a network's weights, which every lane touches, keep it."""
 
     def __init__(self, cfg):
         self.cfg, self.dim, self.bound = cfg, cfg.dim, float(cfg.bound)    # bound: the half-extent it covers

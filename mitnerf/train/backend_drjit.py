@@ -34,6 +34,25 @@ parameters fewer at the step's peak, for two more passes over them. The recipes'
 Adam's one launch, the faster; a finer lattice asked for (``--set resolution=...``) is where memory binds first
 (``benchmarks/adam_step.py`` measures both steps on the lego's lattices)."""
 
+EXPAND_BYTES = 1 << 30
+"""Memory a training step's gradients may take in copies per thread. Every parameter array of at most
+:func:`expand_threshold` floats gets one copy of its gradient per thread (Dr.Jit's ``ReduceMode.Expand``, which its
+``Auto`` mode picks for arrays under ``dr.expand_threshold()``): the backward pass's scatter-adds into it then go
+without atomic operations, and the copies are summed once after it. Larger arrays keep Dr.Jit's atomic adds (and
+:attr:`~mitnerf.fields.base.Field.scattered`'s choice for them). 0: Dr.Jit's own threshold. ``benchmarks/scatter.py``
+measures the steps a second and the peak memory this buys on the lego's lattice."""
+DRJIT_EXPAND_THRESHOLD = 1 << 20
+"""Dr.Jit's own ``dr.expand_threshold()`` (floats): the least this engine sets."""
+
+
+def expand_threshold(threads: int) -> int:
+    """Floats up to which a parameter array's gradient gets a copy per thread (:data:`EXPAND_BYTES`)::
+
+        expand_threshold(2)     # 134217728 with EXPAND_BYTES = 1 GiB: 2 copies of 4-byte floats fill it
+    """
+    return max(DRJIT_EXPAND_THRESHOLD, EXPAND_BYTES // (4 * max(1, threads)))
+
+
 CHECK_EVERY = 16
 """Steps between the checks that every parameter is finite: a non-finite gradient makes its parameter so in Adam's
 step, and a run that fails restores its last good validation's weights, so a check a few steps late loses
@@ -61,6 +80,7 @@ class DrJitBackend(Backend):
         super().__init__(model_cfg, train_cfg, dim, bound, near, far)
         check_llvm()
         dr.set_thread_count(train_cfg.threads)
+        dr.set_expand_threshold(expand_threshold(train_cfg.threads))
         self.model = build_model(model_cfg, dim, bound)
         self.chunk = RENDER_CHUNK if self.model.fields["coarse"].traceable else 8192
         self.opt = LeanAdam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2, epsilon=train_cfg.eps,
