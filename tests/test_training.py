@@ -140,33 +140,6 @@ def test_a_model_past_the_freeze_limit_is_traced_each_step_and_trains_alike(bunn
     np.testing.assert_allclose(curves[0], curves[1], rtol=1e-6)
 
 
-def test_gradients_summed_in_a_copy_per_thread_train_as_atomic_adds_do(bunny_small, monkeypatch):
-    """The engine sets Dr.Jit's expansion threshold from ``EXPAND_BYTES`` and the thread count; a lattice under it
-    has its gradients scatter-added into a copy per thread, one over it atomically, and five steps end on the same
-    weights either way (up to the order of the sums: two threads)."""
-    import drjit as dr
-
-    from mitnerf.train import backend_drjit
-
-    monkeypatch.setattr(backend_drjit, "FREEZE_MAX_PARAMS", 0)      # traced: a mode is read when a step is traced
-    before, recipe, ds = dr.expand_threshold(), small("grid-2d", threads=2), bunny_small
-    weights = []
-    try:
-        for bytes_, least, threshold in ((1 << 30, 1 << 20, (1 << 30) // 8), (0, 0, 0)):
-            monkeypatch.setattr(backend_drjit, "EXPAND_BYTES", bytes_)
-            monkeypatch.setattr(backend_drjit, "DRJIT_EXPAND_THRESHOLD", least)
-            be = make_backend("drjit", recipe.model, recipe.train, 2, ds.bound, ds.near, ds.far)
-            assert dr.expand_threshold() == threshold
-            be.set_data(ds["train"].rays((0, 0, 0), **recipe.train.ray_args()))
-            for k in range(5):
-                be.read(be.step(k, step_seed(0, k), 0.02))
-            weights.append({k: np.asarray(v) for k, v in be.params.items()})
-    finally:
-        dr.set_expand_threshold(before)
-    for name in weights[0]:
-        np.testing.assert_allclose(weights[0][name], weights[1][name], rtol=1e-4, atol=1e-6, err_msg=name)
-
-
 def test_a_traced_step_compiles_nothing_after_its_first(bunny_small, monkeypatch):
     """A step traced anew each time (past ``FREEZE_MAX_PARAMS``) finds every kernel in Dr.Jit's cache from the
     third step on: what changes between steps (seed, learning rate, step, Adam's step count) enters as opaque

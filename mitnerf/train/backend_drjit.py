@@ -4,6 +4,8 @@ parameters; values that change between steps enter as opaque arrays."""
 
 from __future__ import annotations
 
+import contextlib
+
 import drjit as dr
 import numpy as np
 from drjit.auto.ad import Float, UInt32
@@ -35,22 +37,35 @@ Adam's one launch, the faster; a finer lattice asked for (``--set resolution=...
 (``benchmarks/adam_step.py`` measures both steps on the lego's lattices)."""
 
 EXPAND_BYTES = 1 << 30
-"""Memory a training step's gradients may take in copies per thread. Every parameter array of at most
-:func:`expand_threshold` floats gets one copy of its gradient per thread (Dr.Jit's ``ReduceMode.Expand``, which its
-``Auto`` mode picks for arrays under ``dr.expand_threshold()``): the backward pass's scatter-adds into it then go
-without atomic operations, and the copies are summed once after it. Larger arrays keep Dr.Jit's atomic adds (and
-:attr:`~mitnerf.fields.base.Field.scattered`'s choice for them). 0: Dr.Jit's own threshold. ``benchmarks/scatter.py``
-measures the steps a second and the peak memory this buys on the lego's lattice."""
+"""Memory the gradient of one array may take in copies during a training step. Within a step, every array of at
+most :func:`expand_threshold` floats that a scatter-add of the backward pass writes (a parameter array's gradient,
+above all) gets one copy per thread and one more (Dr.Jit's ``ReduceMode.Expand``, which its ``Auto`` mode picks for
+arrays under ``dr.expand_threshold()``): the scatter-adds into it then go without atomic operations, and the copies
+are summed once after the pass. Larger arrays keep Dr.Jit's atomic adds (and
+:attr:`~mitnerf.fields.base.Field.scattered`'s choice for them). The threshold holds only inside the step
+(:func:`expanding`); 0: Dr.Jit's own. ``benchmarks/scatter.py`` measures the steps a second and the peak memory this
+buys on the lego's dense lattice (the hash grids' tables, a few million floats, fall under it too, unmeasured)."""
 DRJIT_EXPAND_THRESHOLD = 1 << 20
 """Dr.Jit's own ``dr.expand_threshold()`` (floats): the least this engine sets."""
 
 
 def expand_threshold(threads: int) -> int:
-    """Floats up to which a parameter array's gradient gets a copy per thread (:data:`EXPAND_BYTES`)::
+    """Floats up to which an array's gradient gets a copy per thread and one more (:data:`EXPAND_BYTES`)::
 
-        expand_threshold(2)     # 134217728 with EXPAND_BYTES = 1 GiB: 2 copies of 4-byte floats fill it
+        expand_threshold(2)     # 89478485 with EXPAND_BYTES = 1 GiB: 3 copies of 4-byte floats fill it
     """
-    return max(DRJIT_EXPAND_THRESHOLD, EXPAND_BYTES // (4 * max(1, threads)))
+    return max(DRJIT_EXPAND_THRESHOLD, EXPAND_BYTES // (4 * (max(1, threads) + 1)))
+
+
+@contextlib.contextmanager
+def expanding(threshold: int):
+    """Dr.Jit's expansion threshold at ``threshold`` floats within, restored after (a process-wide setting)."""
+    before = dr.expand_threshold()
+    dr.set_expand_threshold(threshold)
+    try:
+        yield
+    finally:
+        dr.set_expand_threshold(before)
 
 
 CHECK_EVERY = 16
@@ -80,7 +95,6 @@ class DrJitBackend(Backend):
         super().__init__(model_cfg, train_cfg, dim, bound, near, far)
         check_llvm()
         dr.set_thread_count(train_cfg.threads)
-        dr.set_expand_threshold(expand_threshold(train_cfg.threads))
         self.model = build_model(model_cfg, dim, bound)
         self.chunk = RENDER_CHUNK if self.model.fields["coarse"].traceable else 8192
         self.opt = LeanAdam(lr=train_cfg.lr, beta_1=train_cfg.beta1, beta_2=train_cfg.beta2, epsilon=train_cfg.eps,
@@ -116,9 +130,10 @@ class DrJitBackend(Backend):
         widths = [D, D, 3, 3, 1, 1, 1, 2 * D, 1, 1][:len(names)]
 
         local = not all(f.scattered for f in model.fields.values())     # see Field.scattered
+        threshold = expand_threshold(cfg.threads)
 
         def step(opt, inputs, seed, lr, index, occupancy):
-            with dr.scoped_set_flag(dr.JitFlag.ScatterReduceLocal, local):
+            with dr.scoped_set_flag(dr.JitFlag.ScatterReduceLocal, local), expanding(threshold):
                 return traced(opt, inputs, seed, lr, index, occupancy)
 
         def traced(opt, inputs, seed, lr, index, occupancy):
@@ -137,7 +152,8 @@ class DrJitBackend(Backend):
                 d = [di * inv for di in d]
             # the terms that read parameters at scattered points before the render: their gradients, scatters into
             # new arrays, come first in the backward pass and the integral's is added to them; the other way round
-            # a scatter would copy the integral's whole gradient first (tests/test_training.py)
+            # an atomic scatter would copy the integral's whole gradient first (tests/test_training.py; a gradient
+            # summed in copies per thread, EXPAND_BYTES, is copied once in its expansion either way)
             reg = model.regularizer(params, seed)
             depth, behind = data["depth"][0], None
             if cfg.solid_weight > 0:            # points within the solid extent behind pixel-centre depths
