@@ -3,6 +3,7 @@ timed with its start-up, its printed lines kept."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import statistics
 import subprocess
@@ -55,3 +56,16 @@ def child(code: str, *args) -> dict:
     memory or compiled kernels: the JSON of its last printed line."""
     out = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def lego_step_args(name: str, doc: str, argv, data: Path, repeats: int):
+    """The ``--data`` and ``--repeats`` of a benchmark timing training steps on the lego (``name``, whose ``doc``'s
+    first line is its help); None, after one line saying so, where the folder holds no lego."""
+    p = argparse.ArgumentParser(description=doc.splitlines()[0])
+    p.add_argument("--data", type=Path, default=data)
+    p.add_argument("--repeats", type=int, default=repeats)
+    args = p.parse_args(argv)
+    if not (args.data / "transforms_train.json").exists():
+        print(f"{name}: no lego at {args.data}; nothing measured")
+        return None
+    return args

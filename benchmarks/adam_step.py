@@ -15,7 +15,6 @@ Records ``adam_step/lego`` in ``results.json``. Where the data is absent, one li
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -23,10 +22,10 @@ from pathlib import Path
 from mitnerf.results import record_result
 
 if __package__:                        # imported as benchmarks.adam_step (benchmarks/records.py under the tests)
-    from ._cli import alternating, child, medians
+    from ._cli import alternating, child, lego_step_args, medians
     from .lego import DATA, VARIANTS
 else:                                  # run as python benchmarks/adam_step.py
-    from _cli import alternating, child, medians
+    from _cli import alternating, child, lego_step_args, medians
     from lego import DATA, VARIANTS
 
 COMMAND = "python benchmarks/adam_step.py"
@@ -73,12 +72,8 @@ def measure(data: Path, adam: str, settings: dict, expand_bytes: int | None = No
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", type=Path, default=DATA)
-    p.add_argument("--repeats", type=int, default=1)
-    args = p.parse_args(argv)
-    if not (args.data / "transforms_train.json").exists():
-        print(f"adam_step: no lego at {args.data}; nothing measured")
+    args = lego_step_args("adam_step", __doc__, argv, DATA, 1)
+    if args is None:
         return 0
     values, lines = {}, []
     for case, settings in CASES.items():

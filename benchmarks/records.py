@@ -13,18 +13,16 @@ Records ``records/lego`` in ``results.json``. Where the data is absent, one line
 
 from __future__ import annotations
 
-import argparse
 import sys
-from pathlib import Path
 
 from mitnerf.results import record_result
 
 if __package__:                        # imported as benchmarks.records (the tests)
-    from ._cli import alternating, medians
+    from ._cli import alternating, lego_step_args, medians
     from .adam_step import measure
     from .lego import DATA
 else:                                  # run as python benchmarks/records.py
-    from _cli import alternating, medians
+    from _cli import alternating, lego_step_args, medians
     from adam_step import measure
     from lego import DATA
 
@@ -34,12 +32,8 @@ CASES = {"degree 1": {}, "degree 2": {"sh_degree": 2}}
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", type=Path, default=DATA)
-    p.add_argument("--repeats", type=int, default=2)
-    args = p.parse_args(argv)
-    if not (args.data / "transforms_train.json").exists():
-        print(f"records: no lego at {args.data}; nothing measured")
+    args = lego_step_args("records", __doc__, argv, DATA, 2)
+    if args is None:
         return 0
     values, lines = {}, []
     for case, settings in CASES.items():

@@ -15,18 +15,16 @@ Records ``scatter/lego`` in ``results.json``. Where the data is absent, one line
 
 from __future__ import annotations
 
-import argparse
 import sys
-from pathlib import Path
 
 from mitnerf.results import record_result
 
 if __package__:                        # imported as benchmarks.scatter (the tests)
-    from ._cli import alternating, medians
+    from ._cli import alternating, lego_step_args, medians
     from .adam_step import measure
     from .lego import DATA
 else:                                  # run as python benchmarks/scatter.py
-    from _cli import alternating, medians
+    from _cli import alternating, lego_step_args, medians
     from adam_step import measure
     from lego import DATA
 
@@ -36,12 +34,8 @@ MODES = {"copies": None, "atomic": 0}
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", type=Path, default=DATA)
-    p.add_argument("--repeats", type=int, default=2)
-    args = p.parse_args(argv)
-    if not (args.data / "transforms_train.json").exists():
-        print(f"scatter: no lego at {args.data}; nothing measured")
+    args = lego_step_args("scatter", __doc__, argv, DATA, 2)
+    if args is None:
         return 0
     runs = alternating(tuple(MODES), args.repeats, lambda mode: measure(args.data, "fused", {}, MODES[mode]))
     v = medians(runs, ("steps_per_s", "peak_gib"))
