@@ -43,6 +43,7 @@ from mitnerf.train.fit import fit
 from mitnerf.train.recipes import get_recipe
 
 data, lean, settings = sys.argv[1], sys.argv[2] == "lean", json.loads(sys.argv[3])
+name, (first, last) = settings.pop("recipe", "grid-3d"), settings.pop("timed", (20, 120))
 backend_drjit.LEAN_ADAM_ABOVE = 0 if lean else 1 << 62
 if len(sys.argv) > 4:
     backend_drjit.EXPAND_BYTES = int(sys.argv[4])
@@ -50,24 +51,27 @@ clock, n_params = {}, []
 step = backend_drjit.DrJitBackend.step
 
 def timed(self, index, seed, lr):
-    if index in (20, 120):
+    if index in (first, last):
         dr.sync_thread()
         clock[index] = time.perf_counter()
         n_params.append(self.n_params())
     return step(self, index, seed, lr)
 
 backend_drjit.DrJitBackend.step = timed
-recipe = get_recipe("grid-3d").override(time_budget=3600.0, iters=121, val_every=0, upsample_at=(1, 2),
-                                        progress=False, **settings)
+lattice = {"upsample_at": (1, 2)} if name == "grid-3d" else {}
+recipe = get_recipe(name).override(time_budget=3600.0, iters=last + 1, val_every=0, progress=False, **lattice,
+                                   **settings)
 fit(load_dataset(data), recipe)
-print(json.dumps({"steps_per_s": 100 / (clock[120] - clock[20]), "params": n_params[-1], "peak_gib": peak_memory()}))
+rate = (last - first) / (clock[last] - clock[first])
+print(json.dumps({"steps_per_s": rate, "params": n_params[-1], "peak_gib": peak_memory()}))
 """
 
 
 def measure(data: Path, adam: str, settings: dict, expand_bytes: int | None = None) -> dict:
     """Steps a second of steps 20 to 120 on the whole lattice, its parameters and the peak memory, in a fresh process:
-    Adam's launch (``adam="fused"``) or the lean step; ``expand_bytes``: the engine's
-    :data:`~mitnerf.train.backend_drjit.EXPAND_BYTES` (None: its own)."""
+    Adam's launch (``adam="fused"``) or the lean step; ``settings``: the recipe's overrides, and optionally
+    ``recipe`` (another recipe than ``grid-3d``, trained from its own start) and ``timed`` (the first and last step
+    timed); ``expand_bytes``: the engine's :data:`~mitnerf.train.backend_drjit.EXPAND_BYTES` (None: its own)."""
     return child(CHILD, data, adam, json.dumps(settings), *(() if expand_bytes is None else (expand_bytes,)))
 
 

@@ -44,7 +44,7 @@ arrays under ``dr.expand_threshold()``): the scatter-adds into it then go withou
 are summed once after the pass. Larger arrays keep Dr.Jit's atomic adds (and
 :attr:`~mitnerf.fields.base.Field.scattered`'s choice for them). The threshold holds only inside the step
 (:func:`expanding`); 0: Dr.Jit's own. ``benchmarks/scatter.py`` measures the steps a second and the peak memory this
-buys on the lego's dense lattice (the hash grids' tables, a few million floats, fall under it too, unmeasured)."""
+buys on the lego's dense lattice and on ``hashgrid-3d``'s table."""
 DRJIT_EXPAND_THRESHOLD = 1 << 20
 """Dr.Jit's own ``dr.expand_threshold()`` (floats): the least this engine sets."""
 
