@@ -115,6 +115,21 @@ def test_window_shop_additions_count_the_views_a_file_has(tmp_path, monkeypatch)
     assert rows["grid-3d recipe, 100 images"][0] == 100 and not any("200" in label for label in rows)
     assert rows["7"][1] == cfg.pe_window and rows["4"][1] == 0 and rows["fine pass, 25 images"][1] == 0
     assert rows["7, no frequency window"][1] == 0 and rows["fine pass, 5 images"][1] == cfg.pe_window
+    assert rows[window_shop.NEAREST] == (5, cfg.pe_window)            # row 7 on the 5 photos nearest view 101
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "| held-out PSNR |" in report and "trains on the 5 seen from closest to view 101" in report
+
+
+def test_nearest_views_are_the_cameras_closest_in_direction_to_the_target():
+    """By hand: the pool's directions at 0, 90, 6.3 and 180 deg in the plane; the target at 11.3 deg."""
+    from mitnerf.experiments import window_shop
+
+    pool = [[1, 0, 0], [0, 1, 0], [0.9, 0.1, 0], [-1, 0, 0]]
+    # 6.3 deg camera 5.0 deg away, then 0 deg (11.3), 90 deg (78.7), 180 deg (168.7); the distance does not count
+    assert window_shop.nearest_views(pool, [1, 0.2, 0], 4).tolist() == [2, 0, 1, 3]
+    assert window_shop.nearest_views(pool, [10, 2, 0], 2).tolist() == [2, 0]
+    assert window_shop.nearest_views(pool, [0, 0, 1], 4).tolist() == [0, 1, 2, 3]      # all at 90 deg: ties in order
+    assert window_shop.nearest_views(pool, [1, 0, 0], 0).tolist() == []
 
 
 def test_spread_views_takes_the_first_camera_then_the_farthest_from_those_taken():
