@@ -68,7 +68,8 @@ print(json.dumps({"steps_per_s": rate, "params": n_params[-1], "peak_gib": peak_
 
 
 def measure(data: Path, adam: str, settings: dict, expand_bytes: int | None = None) -> dict:
-    """Steps a second of steps 20 to 120 on the whole lattice, its parameters and the peak memory, in a fresh process:
+    """Steps a second between the timed steps (by default steps 20 to 120 on ``grid-3d``'s whole lattice), the
+    parameters and the peak memory, in a fresh process:
     Adam's launch (``adam="fused"``) or the lean step; ``settings``: the recipe's overrides, and optionally
     ``recipe`` (another recipe than ``grid-3d``, trained from its own start) and ``timed`` (the first and last step
     timed); ``expand_bytes``: the engine's :data:`~mitnerf.train.backend_drjit.EXPAND_BYTES` (None: its own)."""

@@ -98,10 +98,12 @@ def test_window_shop_additions_count_the_views_a_file_has(tmp_path, monkeypatch)
     from mitnerf.scenes.registry import get_scene
 
     ds = make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=100, n_val=2, n_test=4, resolution=4), progress=False)
-    seen = []
+    seen, cameras = [], {}
 
     def fake_row(data, recipe, labels, **_):             # no training: what each row would train on
         seen.append((labels["row"], len(data["train"]), recipe.model.field_args.get("pe_window", 0)))
+        cameras[labels["row"]] = data["train"].cameras.origins
+        assert labels["images"] == len(data["train"]) and isinstance(labels["images"], int)
         rec = SimpleNamespace(psnr=20.0, ssim=0.5, renders=None)
         return {**labels, "psnr": 20.0}, SimpleNamespace(record=lambda *a, **k: rec), rec
 
@@ -116,6 +118,10 @@ def test_window_shop_additions_count_the_views_a_file_has(tmp_path, monkeypatch)
     assert rows["7"][1] == cfg.pe_window and rows["4"][1] == 0 and rows["fine pass, 25 images"][1] == 0
     assert rows["7, no frequency window"][1] == 0 and rows["fine pass, 5 images"][1] == cfg.pe_window
     assert rows[window_shop.NEAREST] == (5, cfg.pe_window)            # row 7 on the 5 photos nearest view 101
+    (_, (pool, tests)), = window_shop.sources(cfg).items()
+    near = window_shop.nearest_views(pool["train"].cameras.origins, tests["report"].cameras.origins[0], 5)
+    assert cameras[window_shop.NEAREST].tolist() == pool["train"].cameras.origins[near].tolist()
+    assert cameras[window_shop.NEAREST].tolist() != cameras["7"].tolist()            # not the first 5
     report = (tmp_path / "out" / "report.md").read_text()
     assert "| held-out PSNR |" in report and "trains on the 5 seen from closest to view 101" in report
 
