@@ -47,7 +47,7 @@ def main(argv=None) -> int:
         return 0
     for case, (what, settings, rounds) in CASES.items():
         runs = alternating(tuple(MODES), rounds * args.repeats,
-                           lambda mode: measure(args.data, "fused", dict(settings), MODES[mode]))
+                           lambda mode: measure(args.data, "fused", settings, MODES[mode]))
         v = medians(runs, ("steps_per_s", "peak_gib"))
         v.update(params=runs["copies"][0]["params"], step_ratio=v["copies_steps_per_s"] / v["atomic_steps_per_s"],
                  peak_added_gib=v["copies_peak_gib"] - v["atomic_peak_gib"], repeats=rounds * args.repeats)

@@ -112,6 +112,12 @@ def nerf_recipe(cfg: Config, images: int, L: int, n_coarse: int, vd: bool, n_fin
                    batch_rays=cfg.batch_rays)
 
 
+def unit_directions(origins) -> np.ndarray:
+    """The directions ``[P, 3]`` from the object (at the origin) to the cameras at ``origins`` ``[P, 3]``."""
+    u = np.asarray(origins, np.float64)
+    return u / np.linalg.norm(u, axis=-1, keepdims=True)
+
+
 def spread_views(origins: np.ndarray, n: int) -> np.ndarray:
     """Indices of ``n`` of the cameras at ``origins`` ``[P, 3]`` (around an object at the origin) whose directions
     from the object lie far apart: the first camera, then each time the one whose smallest angle to those taken is
@@ -119,8 +125,7 @@ def spread_views(origins: np.ndarray, n: int) -> np.ndarray:
 
         spread_views([[1, 0, 0], [0.9, 0.1, 0], [-1, 0, 0], [0, 1, 0]], 3)   # [0, 2, 3]: opposite, then between
     """
-    u = np.asarray(origins, np.float64)
-    u = u / np.linalg.norm(u, axis=1, keepdims=True)
+    u = unit_directions(origins)
     n = min(int(n), len(u))
     if n < 1:
         return np.zeros(0, np.int64)
@@ -138,10 +143,7 @@ def nearest_views(origins: np.ndarray, target: np.ndarray, n: int) -> np.ndarray
 
         nearest_views([[1, 0, 0], [0, 1, 0], [0.9, 0.1, 0], [-1, 0, 0]], [1, 0.2, 0], 2)   # [2, 0]: 5, then 11 deg
     """
-    u = np.asarray(origins, np.float64)
-    u = u / np.linalg.norm(u, axis=1, keepdims=True)
-    t = np.asarray(target, np.float64) / np.linalg.norm(target)
-    return np.argsort(-(u @ t), kind="stable")[:max(0, int(n))]
+    return np.argsort(-(unit_directions(origins) @ unit_directions(target)), kind="stable")[:max(0, int(n))]
 
 
 def training_views(cfg: Config, pool: Split, n) -> Split:
