@@ -165,3 +165,55 @@ def test_the_native_mode_without_a_compiler_says_how_to_fix_it(monkeypatch):
         f.init_params(0)                                                 # Dr.Jit storage for the kernel
     with pytest.raises(ValueError, match="mode must be one of native, coopvec, tensor"):
         NeRFConfig(mode="auto")                                  # no mode chosen by machine
+
+
+def _native_gradients(cfg, w, x, d, cot):
+    """Weight and position gradients of the native MLP under the cotangents ``cot`` ``[M, 4]``."""
+    import drjit as dr
+    f = NeRFField(cfg)
+    p = f.from_numpy(w)
+    dr.enable_grad(p["mlp"])
+    xs, ds = [Float(v) for v in x.T], [Float(v) for v in d.T]
+    dr.enable_grad(xs)
+    s, c = f.query(p, xs, ds)
+    dr.backward(dr.sum(s * Float(cot[:, 0])) + sum(dr.sum(ck * Float(cot[:, k + 1])) for k, ck in enumerate(c)))
+    return np.asarray(dr.grad(p["mlp"])), np.stack([np.asarray(dr.grad(v)) for v in xs], 1)
+
+
+def test_the_native_backward_from_the_stash_is_the_recomputed_one(monkeypatch):
+    """The forward's kept activations give the backward what recomputing them gives: each sample's input gradient
+    bit for bit, the weight gradients up to the order of the tiles' sums (the stash keeps the forward's tiles), over a
+    sample count that leaves the last tile part empty."""
+    from mitnerf.fields import native
+    if native.library() is None:
+        pytest.skip("no C compiler here: the native MLP cannot be built")
+    cfg = NeRFConfig(dim=3, width=32, depth=4, pos_L=4, dir_L=2, mode="native")
+    w = init_weights(cfg, 2)
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1.5, 1.5, (1000, 3)).astype(np.float32)
+    d = rng.normal(size=(1000, 3)).astype(np.float32)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    cot = rng.normal(size=(1000, 4)).astype(np.float32)
+    kept = _native_gradients(cfg, w, x, d, cot)
+    monkeypatch.setattr(native, "STASH_BYTES", 0)                  # too small for any stash: recompute
+    again = _native_gradients(cfg, w, x, d, cot)
+    assert np.abs(kept[0]).max() > 0 and np.abs(kept[1]).max() > 0
+    np.testing.assert_array_equal(kept[1], again[1])                 # per sample: the same sums, bit for bit
+    np.testing.assert_allclose(kept[0], again[0], rtol=1e-4, atol=1e-6 * np.abs(again[0]).max())   # tile order
+
+
+def test_stashes_hand_out_the_smallest_spare_that_fits():
+    from mitnerf.fields.native import Stashes
+    s = Stashes(spare=2)
+    a = s.take(100)                   # none spare: a new one, an eighth larger: 112 floats
+    assert a.size == 112 and a.ctypes.data % 64 == 0
+    b = s.take(200)                   # 225
+    s.give(a)
+    s.give(b)
+    assert s.take(90) is a            # both fit: the smaller
+    assert s.take(90) is b            # the one left
+    c = s.take(300)                   # none spare: 337
+    s.give(a)
+    s.give(b)
+    s.give(c)                         # three spares: the largest two stay
+    assert [len(f) for f in s.free] == [337, 225]

@@ -25,7 +25,7 @@ from ..settings import setting
 from .base import Field, FieldConfig, density_activation, sigmoid
 from .encoding import direction_encoding, encoded_size, positional_encoding
 from .layers import LinearLayers, torch_default_init
-from .native import library, native_mlp
+from .native import Stashes, library, native_mlp
 
 MODES = ("native", "coopvec", "tensor")
 
@@ -90,6 +90,7 @@ class NeRFField(Field):
         self.mode = cfg.mode
         self.traceable, self.freezable = self.mode == "coopvec", self.mode != "native"   # C calls cannot be recorded
         self.layers = LinearLayers(layer_shapes(cfg), self.mode)
+        self.stashes = Stashes()        # the native kernel's activation memory, reused step after step
 
     def init_numpy(self, seed: int = 0) -> dict[str, np.ndarray]:
         return init_weights(self.cfg, seed)
@@ -116,7 +117,8 @@ class NeRFField(Field):
             d = [dr.zeros(Float, dr.width(x[0]))] + [dr.full(Float, 1.0, dr.width(x[0]))] * (cfg.dim - 1)
         enc_d = direction_encoding(list(d), cfg.dir_L) if cfg.view_dependent and d is not None else []
         if self.mode == "native":
-            raw_sigma, raw_rgb = native_mlp(params["mlp"], enc_x, enc_d, (cfg.depth, cfg.width, cfg.skip))
+            raw_sigma, raw_rgb = native_mlp(params["mlp"], enc_x, enc_d, (cfg.depth, cfg.width, cfg.skip),
+                                          self.stashes)
             return density_activation(raw_sigma, cfg.density_activation), [sigmoid(v) for v in raw_rgb]
         h = L.start(enc_x)
         for i in range(cfg.depth):

@@ -4,7 +4,8 @@
 :func:`library` compiles it on first use (None where no compiler works: ``mode=native`` is then refused).
 Data crosses as zero-copy NumPy views of evaluated Dr.Jit arrays: the encoded inputs
 sample-major, the weights in canonical order (each ``nn.Linear`` weight ``[out, in]`` then its
-bias), the outputs raw (activations stay in Dr.Jit).
+bias), the outputs raw (activations stay in Dr.Jit). A forward that a backward will follow keeps its hidden
+layers in a stash for that backward (:data:`STASH_BYTES`; the memory is the field's :class:`Stashes`).
 """
 
 from __future__ import annotations
@@ -25,6 +26,11 @@ from drjit.auto.ad import ArrayXf, Float
 from .._io import cache_entry
 
 SOURCE = Path(__file__).with_name("native_mlp.c")
+STASH_BYTES = 1 << 30
+"""Bytes up to which a forward that a backward will follow keeps its activations (the trunk's and the colour
+layer's, 4 bytes each per sample) for that backward, which then skips recomputing them; above it the backward
+recomputes. ``benchmarks/step_time.py`` times the MLP both ways (``native`` against ``native recomputing``, and
+their ratio ``stash_speedup``)."""
 _F = ctypes.POINTER(ctypes.c_float)
 
 
@@ -51,15 +57,44 @@ def library():
     except (OSError, subprocess.SubprocessError):
         return None
     L, I = ctypes.c_long, ctypes.c_int
-    lib.mlp_forward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F]
-    lib.mlp_backward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F, _F, _F, _F]
+    lib.mlp_forward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F, _F]
+    lib.mlp_backward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F, _F, _F, _F, _F]
     lib.mlp_forward.restype = lib.mlp_backward.restype = I
+    lib.mlp_stash_floats.argtypes = [I, I, I, I, I, L]
+    lib.mlp_stash_floats.restype = L
     lib.mlp_set_threads.argtypes = [I]
     return lib
 
 
 def _ptr(a: np.ndarray | None):
     return None if a is None else a.ctypes.data_as(_F)
+
+
+def _aligned(n: int) -> np.ndarray:
+    """``n`` uninitialised float32s starting on a 64-byte boundary (the kernel's vectors assume it)."""
+    raw = np.empty(n + 16, np.float32)
+    start = (-raw.ctypes.data % 64) // 4
+    return raw[start:start + n]
+
+
+class Stashes:
+    """The memory of the forwards' stashes (:data:`STASH_BYTES`), kept between steps: a field holds one, so that
+    each step's forward writes into pages already mapped instead of faulting fresh ones in (a stash is tens of MB).
+    ``take(floats)`` hands out the smallest spare buffer that holds ``floats``, or a new one an eighth larger (a
+    batch's sample count may vary); the backward gives it back (``give``). At most ``spare`` spares stay, the largest.
+    """
+
+    def __init__(self, spare: int = 2):
+        self.spare, self.free = spare, []
+
+    def take(self, floats: int) -> np.ndarray:
+        fits = [i for i, b in enumerate(self.free) if b.size >= floats]
+        if not fits:
+            return _aligned(floats + floats // 8)
+        return self.free.pop(min(fits, key=lambda i: self.free[i].size))
+
+    def give(self, buffer: np.ndarray) -> None:
+        self.free = sorted([*self.free, buffer], key=lambda b: -b.size)[:self.spare]
 
 
 def _host(x: Float) -> np.ndarray:
@@ -86,13 +121,14 @@ def _cores_to_the_kernel():
 
 
 class NativeMLP(dr.CustomOp):
-    """``dr.custom(NativeMLP, weights, X, Dd, arch, need)`` -> ``(raw sigma [M], raw rgb 3 x [M])``.
+    """``dr.custom(NativeMLP, weights, X, Dd, arch, need, stashes)`` -> ``(raw sigma [M], raw rgb 3 x [M])``.
 
     ``weights``: the flat canonical buffer; ``X``: the C_in encoded position arrays ``[M]``;
     ``Dd``: the C_dir encoded direction arrays (may be empty); ``arch``: ``(D, W, skip)``;
-    ``need``: whether the gradients w.r.t. ``X`` and ``Dd`` are wanted."""
+    ``need``: whether the gradients w.r.t. ``X``, ``Dd`` and ``weights`` are wanted (any: a backward will follow,
+    and the forward keeps its activations for it in a buffer of ``stashes`` where they fit :data:`STASH_BYTES`)."""
 
-    def eval(self, weights, X, Dd, arch, need):
+    def eval(self, weights, X, Dd, arch, need, stashes):
         M = dr.width(X[0])
         self.M, self.need = M, need
         self.keep = (weights, dr.ravel(ArrayXf(X)), dr.ravel(ArrayXf(Dd)) if Dd else None)   # alive until backward
@@ -100,8 +136,13 @@ class NativeMLP(dr.CustomOp):
         self.dims = (*arch, len(X), len(Dd))
         sigma, rgb = np.empty(M, np.float32), np.empty(3 * M, np.float32)
         with _cores_to_the_kernel():
+            self.stash = None
+            if any(need):                       # a backward will follow: keep the activations if they fit
+                floats = library().mlp_stash_floats(*self.dims, M)
+                self.stash = stashes.take(floats) if 0 < 4 * floats <= STASH_BYTES else None
+                self.stashes = stashes
             failed = library().mlp_forward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), M, _ptr(sigma),
-                                           _ptr(rgb))
+                                           _ptr(rgb), _ptr(self.stash))
         if failed:
             raise RuntimeError(f"the native MLP does not support {self.dims}")
         return Float(sigma), [Float(rgb[k::3]) for k in range(3)]
@@ -116,7 +157,10 @@ class NativeMLP(dr.CustomOp):
         dD = np.empty(self.M * Cd, np.float32) if self.need[1] and Cd else None
         with _cores_to_the_kernel():
             library().mlp_backward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), self.M, _ptr(ds), _ptr(dc),
-                                   _ptr(grad), _ptr(dX), _ptr(dD))
+                                   _ptr(grad), _ptr(dX), _ptr(dD), _ptr(self.stash))
+        if self.stash is not None:                          # spent: the backward overwrote it with gradients
+            self.stashes.give(self.stash)
+            self.stash = None
         self.set_grad_in("weights", Float(grad))
         if dX is not None:
             self.set_grad_in("X", [Float(dX[c::C]) for c in range(C)])
@@ -127,7 +171,8 @@ class NativeMLP(dr.CustomOp):
         return "NativeMLP"
 
 
-def native_mlp(weights: Float, X: list, Dd: list, arch: tuple) -> tuple[Float, list]:
-    """The NeRF MLP's raw density and colour at ``M`` samples (see :class:`NativeMLP`)."""
-    need = (any(dr.grad_enabled(x) for x in X), any(dr.grad_enabled(d) for d in Dd))
-    return dr.custom(NativeMLP, weights, list(X), list(Dd), tuple(arch), need)
+def native_mlp(weights: Float, X: list, Dd: list, arch: tuple, stashes: Stashes | None = None) -> tuple[Float, list]:
+    """The NeRF MLP's raw density and colour at ``M`` samples (see :class:`NativeMLP`); ``stashes``: where the
+    forward's activations find memory (a new :class:`Stashes` by default: nothing reused)."""
+    need = (any(dr.grad_enabled(x) for x in X), any(dr.grad_enabled(d) for d in Dd), dr.grad_enabled(weights))
+    return dr.custom(NativeMLP, weights, list(X), list(Dd), tuple(arch), need, stashes or Stashes())

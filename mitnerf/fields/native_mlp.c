@@ -1,5 +1,5 @@
 /*
- * mlp.c -- fused CPU kernel for the NeRF MLP (forward + recomputing backward).
+ * mlp.c -- fused CPU kernel for the NeRF MLP (forward + backward, from a stash or recomputing).
  *
  * Build: gcc -O3 -march=native -pthread -shared -fPIC mlp.c -o libmlp.so
  * Works with AVX-512 (VL=16 floats) or AVX2/FMA (VL=8 floats); selected at
@@ -42,9 +42,12 @@
  * ---------------------------------------------------------------------------
  * API (all float32, C-contiguous, sample-major):
  *   int  mlp_forward (D, W, skip, C_in, C_dir, params, X[M,C_in], Dd[M,C_dir] (NULL if C_dir==0),
- *                     M, out_sigma[M], out_rgb[M,3])
+ *                     M, out_sigma[M], out_rgb[M,3], stash or NULL)
  *   int  mlp_backward(D, W, skip, C_in, C_dir, params, X, Dd, M, d_sigma[M], d_rgb[M,3],
- *                     grad[nparams] (overwritten), dX[M,C_in] or NULL, dDd[M,C_dir] or NULL)
+ *                     grad[nparams] (overwritten), dX[M,C_in] or NULL, dDd[M,C_dir] or NULL, stash or NULL)
+ *   long mlp_stash_floats(D, W, skip, C_in, C_dir, M)      (the stash's size; -1 if unsupported)
+ * A forward given a stash (64-byte aligned) keeps every activation there; the backward given the
+ * same stash reads them instead of recomputing the forward (and overwrites them with gradients).
  *   void mlp_set_threads(nthreads)                          (default 2)
  * skip: layer index with input concat[h, X]; any value outside 1..D-1 means no skip.
  * Return 0 on success, -1 on an unsupported configuration (D > 32, W > 1024, odd W, C_dir > 63).
@@ -1022,11 +1025,23 @@ static void fill_dtile(float* dst, const float* src, long rows, long T, int Cdir
 }
 
 /* ------------------------------------------------------------------------ */
+/* The stash: a forward's activations kept for its backward, which then skips the recomputation.
+   Layout: a header of STASH_HEAD floats (the tile height T, as a long), then one slot per tile of
+   D trunk outputs [T][Wp] and the colour hidden layer [T][W2p]; the caller allocates it 64-byte aligned. */
+#define STASH_HEAD 16
+static long stash_slot(const plan_t* P, long T) { return (long)P->D * T * P->Wp + T * P->W2p; }
+
+static void stash_tile(const plan_t* P, float* stash, long T, long it, float** H, float** C0) {
+    float* base = stash + STASH_HEAD + it * stash_slot(P, T);
+    for (int l = 0; l < P->D; l++) H[l] = base + (long)l * T * P->Wp;
+    *C0 = base + (long)P->D * T * P->Wp;
+}
+
 /* one call's arguments and shared state, seen by every thread of its team */
 typedef struct {
     plan_t P;
     const float *params, *X, *Dd, *d_sigma, *d_rgb;
-    float *w, *out_sigma, *out_rgb, *grad, *dX, *dDd;
+    float *w, *out_sigma, *out_rgb, *grad, *dX, *dDd, *stash;
     long M, T, ntiles;
     size_t nscr;
     int need_prep, want_dx, want_dd, nth;
@@ -1072,6 +1087,8 @@ static void forward_body(team_t* team, int tid) {
     if (c->need_prep) team_units(team, &c->prep_counter, P->D + 1, prep_one, c);
     scr_t S;
     layout_scratch(P, T, 0, 0, &S, thread_scratch(tid, c->nscr));
+    float* Hs[MAXD];
+    float* C0s = S.C0;
     long it = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
     pf.calls = 0;
     while (it < ntiles) {
@@ -1087,10 +1104,17 @@ static void forward_body(team_t* team, int tid) {
         }
         fill_dtile(S.Dp, Dt, rows, Te, C_dir, P->Cdp);
         Dt = S.Dp;
-        tile_forward(P, w, Xt, Dt, S.H, 0, S.C0, Te);
-        const float* hl = S.H[(P->D - 1) & 1];
+        const float* hl;
+        if (c->stash) { /* every activation of the tile stays in its stash slot for the backward */
+            stash_tile(P, c->stash, T, it, Hs, &C0s);
+            tile_forward(P, w, Xt, Dt, Hs, 1, C0s, Te);
+            hl = Hs[P->D - 1];
+        } else {
+            tile_forward(P, w, Xt, Dt, S.H, 0, S.C0, Te);
+            hl = S.H[(P->D - 1) & 1];
+        }
         narrow_fwd(hl, P->Wp, P->Wp / VL, w + P->ows, P->Wp, w + P->obs, 1, S.so, 1, Te);
-        narrow_fwd(S.C0, P->W2p, P->W2p / VL, w + P->oWc1, P->W2p, w + P->obc1, 3, S.ro, 3, Te);
+        narrow_fwd(C0s, P->W2p, P->W2p / VL, w + P->oWc1, P->W2p, w + P->obc1, 3, S.ro, 3, Te);
         memcpy(c->out_sigma + t0, S.so, sizeof(float) * rows);
         memcpy(c->out_rgb + 3 * t0, S.ro, sizeof(float) * rows * 3);
         it = nx;
@@ -1100,15 +1124,19 @@ static void forward_body(team_t* team, int tid) {
 /* Forward: out_sigma[M], out_rgb[M,3] (raw, no activation).
    X[M, C_in], Dd[M, C_dir] (may be NULL if C_dir == 0), sample-major float32. */
 int mlp_forward(int D, int W, int skip, int C_in, int C_dir, const float* params, const float* X, const float* Dd,
-                long M, float* out_sigma, float* out_rgb) {
+                long M, float* out_sigma, float* out_rgb, float* stash) {
     call_t c;
     memset(&c, 0, sizeof c);
     if (make_plan(&c.P, D, W, skip, C_in, C_dir)) return -1;
     ensure_tables();
     c.w = get_prep(&c.P, params, &c.need_prep);
     c.params = params; c.X = X; c.Dd = Dd; c.M = M; c.out_sigma = out_sigma; c.out_rgb = out_rgb;
-    c.T = choose_tile(&c.P, 0, M, opt_threads);
+    c.T = choose_tile(&c.P, 0, M, opt_threads); /* the backward reads it from the stash's header */
     c.ntiles = (M + c.T - 1) / c.T;
+    if (stash) {
+        c.stash = stash;
+        memcpy(stash, &c.T, sizeof c.T);
+    }
     scr_t S0;
     c.nscr = layout_scratch(&c.P, c.T, 0, 0, &S0, NULL);
     team_run(forward_body, &c, opt_threads);
@@ -1147,7 +1175,10 @@ static void backward_body(team_t* team, int tid) {
             copy_rows_pad(S.dsp, ds, rows, Te, 1); ds = S.dsp;
             copy_rows_pad(S.drp, dr, rows, Te, 3); dr = S.drp;
         }
-        tile_forward(P, w, Xt, Dt, S.H, 1, S.C0, Te);
+        if (c->stash)
+            stash_tile(P, c->stash, T, it, S.H, &S.C0);
+        else
+            tile_forward(P, w, Xt, Dt, S.H, 1, S.C0, Te);
         tile_backward(P, w, Xt, Dt, ds, dr, &S, want_dx ? S.dXs : NULL, want_dd ? S.dDs : NULL, Te);
         if (want_dd)
             for (long t = 0; t < rows; t++)
@@ -1166,13 +1197,13 @@ static void backward_body(team_t* team, int tid) {
     team_units(team, &c->unpack_counter, P->D + 1, unpack_one, c);
 }
 
-/* Backward (recomputes the forward per tile).
+/* Backward (recomputes the forward per tile, or reads it from the forward's stash, then spent).
    d_sigma[M], d_rgb[M,3]: gradient of the loss w.r.t. raw_sigma / raw_rgb.
    grad: flat buffer, same layout as params, OVERWRITTEN.
    dX: [M, C_in] gradient w.r.t. X (overwritten), or NULL if not needed.
    dDd: [M, C_dir] gradient w.r.t. Dd (overwritten), or NULL if not needed. */
 int mlp_backward(int D, int W, int skip, int C_in, int C_dir, const float* params, const float* X, const float* Dd,
-                 long M, const float* d_sigma, const float* d_rgb, float* grad, float* dX, float* dDd) {
+                 long M, const float* d_sigma, const float* d_rgb, float* grad, float* dX, float* dDd, float* stash) {
     call_t c;
     memset(&c, 0, sizeof c);
     if (make_plan(&c.P, D, W, skip, C_in, C_dir)) return -1;
@@ -1181,6 +1212,10 @@ int mlp_backward(int D, int W, int skip, int C_in, int C_dir, const float* param
     c.params = params; c.X = X; c.Dd = Dd; c.M = M; c.d_sigma = d_sigma; c.d_rgb = d_rgb;
     c.grad = grad; c.dX = dX; c.dDd = dDd;
     c.T = choose_tile(&c.P, 1, M, opt_threads);
+    if (stash) { /* the forward's tiles, whatever the threads now */
+        c.stash = stash;
+        memcpy(&c.T, stash, sizeof c.T);
+    }
     c.ntiles = (M + c.T - 1) / c.T;
     c.want_dx = dX != NULL;
     c.want_dd = dDd != NULL && C_dir > 0;
@@ -1188,4 +1223,13 @@ int mlp_backward(int D, int W, int skip, int C_in, int C_dir, const float* param
     c.nscr = layout_scratch(&c.P, c.T, 1, c.want_dx | 2 * c.want_dd, &S0, NULL);
     team_run(backward_body, &c, opt_threads);
     return 0;
+}
+
+/* Floats of the stash that mlp_forward(..., stash) fills for M samples on the present threads (in the forward's
+   tiles: with the activations at hand the backward runs as fast in them as in its own). */
+long mlp_stash_floats(int D, int W, int skip, int C_in, int C_dir, long M) {
+    plan_t P;
+    if (make_plan(&P, D, W, skip, C_in, C_dir)) return -1;
+    const long T = choose_tile(&P, 0, M, opt_threads);
+    return STASH_HEAD + (M + T - 1) / T * stash_slot(&P, T);
 }
