@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+import ctypes
+import os
+import shutil
 import statistics
+import subprocess
+import tempfile
 import time
+from pathlib import Path
 
 import drjit as dr
 import numpy as np
@@ -65,20 +71,15 @@ def alternate(backends: dict, rounds: int, warmup: int = 3) -> dict:
     return {name: statistics.median(t) for name, t in times.items()}
 
 
-def gemm_peak() -> float:
-    """fp32 GEMM GFLOP/s of this machine (best of torch and Dr.Jit on 2048^3)."""
-    import torch
-    from drjit.auto.ad import TensorXf
-
-    a = np.random.default_rng(0).random((2048, 2048), dtype=np.float32)
-    A, T = TensorXf(a), torch.from_numpy(a)
-    best = 0.0
-    for f in (lambda: dr.eval(dr.matmul(A, A)) or dr.sync_thread(), lambda: T @ T):
-        f()
-        ts = []
-        for _ in range(5):
-            t0 = time.perf_counter()
-            f()
-            ts.append(time.perf_counter() - t0)
-        best = max(best, 2 * 2048 ** 3 / min(ts) / 1e9)
-    return best
+def fma_peak(threads: int = 2, rounds: int = 5) -> float:
+    """This CPU's fp32 arithmetic ceiling in GFLOP/s on ``threads`` threads: fused multiply-adds on registers only
+    (``fma_peak.c``, built here with the C compiler for this CPU), the best of ``rounds``. A GEMM library's peak
+    can fall short of it (the 2048^3 GEMMs of ``step_time.py`` do on some AMD EPYCs); no kernel can beat it."""
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    with tempfile.TemporaryDirectory() as tmp:
+        lib = Path(tmp) / "libfma.so"
+        subprocess.run([cc, "-O3", "-march=native", "-ffp-contract=fast", "-pthread", "-shared", "-fPIC",
+                        str(Path(__file__).with_name("fma_peak.c")), "-o", str(lib)], check=True, capture_output=True)
+        fma = ctypes.CDLL(str(lib)).fma_gflops
+    fma.argtypes, fma.restype = [ctypes.c_int, ctypes.c_long], ctypes.c_double
+    return max(fma(threads, 20_000_000) for _ in range(rounds))
