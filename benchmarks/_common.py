@@ -76,6 +76,8 @@ def fma_peak(threads: int = 2, rounds: int = 5) -> float:
     (``fma_peak.c``, built here with the C compiler for this CPU), the best of ``rounds``. A GEMM library's peak
     can fall short of it (the 2048^3 GEMMs of ``step_time.py`` do on some AMD EPYCs); no kernel can beat it."""
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        raise SystemExit("the FMA ceiling needs a C compiler (cc, gcc or $CC): install one")
     with tempfile.TemporaryDirectory() as tmp:
         lib = Path(tmp) / "libfma.so"
         subprocess.run([cc, "-O3", "-march=native", "-ffp-contract=fast", "-pthread", "-shared", "-fPIC",

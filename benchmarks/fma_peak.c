@@ -1,15 +1,22 @@
 /* The fp32 arithmetic ceiling of this CPU: every thread runs fused multiply-adds on registers only
- * (ACC independent vector accumulators, enough to hide the FMA latency on every x86 core we know),
- * so nothing but the FMA units limits it. Built by benchmarks/_common.py (fma_peak) with
- * cc -O3 -march=native -pthread: the vectors are 16 floats, split in two by AVX2-only compilers.
+ * (ACC independent vector accumulators, enough to hide the FMA latency on every x86 core we know,
+ * and few enough to stay in the vector registers), so nothing but the FMA units limits it. Built by
+ * benchmarks/_common.py (fma_peak) with cc -O3 -march=native -pthread: 16 accumulators of 16 floats
+ * where AVX-512 is (32 registers), else 12 of 8 floats (16 registers).
  *
  *   double fma_gflops(int threads, long iterations)   -> GFLOP/s over all threads (2 FLOPs per FMA lane)
  */
 #include <pthread.h>
 #include <time.h>
 
+#ifdef __AVX512F__
 #define ACC 16
-typedef float vf __attribute__((vector_size(64)));
+#define LANES 16
+#else
+#define ACC 12
+#define LANES 8
+#endif
+typedef float vf __attribute__((vector_size(4 * LANES)));
 
 typedef struct { long n; float out; } job_t;
 
@@ -22,7 +29,7 @@ static void* run(void* arg) {
         for (int k = 0; k < ACC; k++) acc[k] = acc[k] * a + b;   /* contracted into one FMA */
     float s = 0;
     for (int k = 0; k < ACC; k++)
-        for (int l = 0; l < 16; l++) s += acc[k][l];
+        for (int l = 0; l < LANES; l++) s += acc[k][l];
     j->out = s;                                                   /* keeps the loop alive */
     return 0;
 }
@@ -41,5 +48,5 @@ double fma_gflops(int threads, long iterations) {
     for (int i = 0; i < threads; i++) pthread_join(t[i], 0);
     clock_gettime(CLOCK_MONOTONIC, &t1);
     const double s = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
-    return 2.0 * 16 * ACC * (double)iterations * threads / s / 1e9;
+    return 2.0 * LANES * ACC * (double)iterations * threads / s / 1e9;
 }

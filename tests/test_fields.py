@@ -168,16 +168,18 @@ def test_the_native_mode_without_a_compiler_says_how_to_fix_it(monkeypatch):
 
 
 def _native_gradients(cfg, w, x, d, cot):
-    """Weight and position gradients of the native MLP under the cotangents ``cot`` ``[M, 4]``."""
+    """Weight, position and direction gradients of the native MLP under the cotangents ``cot`` ``[M, 4]``, and the
+    spare stashes its field holds after the backward."""
     import drjit as dr
     f = NeRFField(cfg)
     p = f.from_numpy(w)
     dr.enable_grad(p["mlp"])
     xs, ds = [Float(v) for v in x.T], [Float(v) for v in d.T]
-    dr.enable_grad(xs)
+    dr.enable_grad(xs, ds)
     s, c = f.query(p, xs, ds)
     dr.backward(dr.sum(s * Float(cot[:, 0])) + sum(dr.sum(ck * Float(cot[:, k + 1])) for k, ck in enumerate(c)))
-    return np.asarray(dr.grad(p["mlp"])), np.stack([np.asarray(dr.grad(v)) for v in xs], 1)
+    grads = (np.asarray(dr.grad(p["mlp"])), *(np.stack([np.asarray(dr.grad(v)) for v in u], 1) for u in (xs, ds)))
+    return grads, len(f.stashes.free)
 
 
 def test_the_native_backward_from_the_stash_is_the_recomputed_one(monkeypatch):
@@ -194,11 +196,13 @@ def test_the_native_backward_from_the_stash_is_the_recomputed_one(monkeypatch):
     d = rng.normal(size=(1000, 3)).astype(np.float32)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     cot = rng.normal(size=(1000, 4)).astype(np.float32)
-    kept = _native_gradients(cfg, w, x, d, cot)
+    kept, spares = _native_gradients(cfg, w, x, d, cot)
     monkeypatch.setattr(native, "STASH_BYTES", 0)                  # too small for any stash: recompute
-    again = _native_gradients(cfg, w, x, d, cot)
-    assert np.abs(kept[0]).max() > 0 and np.abs(kept[1]).max() > 0
-    np.testing.assert_array_equal(kept[1], again[1])                 # per sample: the same sums, bit for bit
+    again, none = _native_gradients(cfg, w, x, d, cot)
+    assert (spares, none) == (1, 0)                                # the stash was used, then given back
+    assert all(np.abs(g).max() > 0 for g in kept)
+    for a, b in zip(kept[1:], again[1:]):
+        np.testing.assert_array_equal(a, b)                        # per sample: the same sums, bit for bit
     np.testing.assert_allclose(kept[0], again[0], rtol=1e-4, atol=1e-6 * np.abs(again[0]).max())   # tile order
 
 
@@ -206,14 +210,15 @@ def test_stashes_hand_out_the_smallest_spare_that_fits():
     from mitnerf.fields.native import Stashes
     s = Stashes(spare=2)
     a = s.take(100)                   # none spare: a new one, an eighth larger: 112 floats
-    assert a.size == 112 and a.ctypes.data % 64 == 0
+    assert a.buffer.size == 112 and a.buffer.ctypes.data % 64 == 0
     b = s.take(200)                   # 225
-    s.give(a)
-    s.give(b)
-    assert s.take(90) is a            # both fit: the smaller
-    assert s.take(90) is b            # the one left
-    c = s.take(300)                   # none spare: 337
-    s.give(a)
-    s.give(b)
-    s.give(c)                         # three spares: the largest two stay
+    a.end()
+    a.end()                           # once only
+    del b                             # a lease dropped unended gives its buffer back too
+    assert [len(f) for f in s.free] == [225, 112]
+    assert s.take(90).buffer.size == 112           # both fit: the smaller (the lease, dropped, gives it back)
+    kept = s.take(90)
+    c = s.take(300)                   # 225 and 112 are out or too small: a new one, 337
+    kept.end()
+    c.end()                           # three spares: the largest two stay
     assert [len(f) for f in s.free] == [337, 225]

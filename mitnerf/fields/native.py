@@ -28,8 +28,9 @@ from .._io import cache_entry
 SOURCE = Path(__file__).with_name("native_mlp.c")
 STASH_BYTES = 1 << 30
 """Bytes up to which a forward that a backward will follow keeps its activations (the trunk's and the colour
-layer's, 4 bytes each per sample) for that backward, which then skips recomputing them; above it the backward
-recomputes. ``benchmarks/step_time.py`` times the MLP both ways (``native`` against ``native recomputing``, and
+layer's: ``(depth * width + width / 2) * 4`` bytes per sample) for that backward, which then skips recomputing them;
+above it the backward recomputes. Each field keeps up to two spare stashes between steps (:class:`Stashes`), so a
+field may hold about 2.25 x this in all. ``benchmarks/step_time.py`` times the MLP both ways (``native`` against ``native recomputing``, and
 their ratio ``stash_speedup``)."""
 _F = ctypes.POINTER(ctypes.c_float)
 
@@ -80,21 +81,37 @@ def _aligned(n: int) -> np.ndarray:
 class Stashes:
     """The memory of the forwards' stashes (:data:`STASH_BYTES`), kept between steps: a field holds one, so that
     each step's forward writes into pages already mapped instead of faulting fresh ones in (a stash is tens of MB).
-    ``take(floats)`` hands out the smallest spare buffer that holds ``floats``, or a new one an eighth larger (a
-    batch's sample count may vary); the backward gives it back (``give``). At most ``spare`` spares stay, the largest.
+    ``take(floats)`` lends the smallest spare buffer that holds ``floats``, or a new one an eighth larger (a batch's
+    sample count may vary), as a :class:`Lease`; the backward ends it, which gives the buffer back (``give``). At most
+    ``spare`` spares stay, the largest.
     """
 
     def __init__(self, spare: int = 2):
         self.spare, self.free = spare, []
 
-    def take(self, floats: int) -> np.ndarray:
+    def take(self, floats: int) -> Lease:
         fits = [i for i, b in enumerate(self.free) if b.size >= floats]
         if not fits:
-            return _aligned(floats + floats // 8)
-        return self.free.pop(min(fits, key=lambda i: self.free[i].size))
+            return Lease(self, _aligned(floats + floats // 8))
+        return Lease(self, self.free.pop(min(fits, key=lambda i: self.free[i].size)))
 
     def give(self, buffer: np.ndarray) -> None:
         self.free = sorted([*self.free, buffer], key=lambda b: -b.size)[:self.spare]
+
+
+class Lease:
+    """A buffer of :class:`Stashes` out on loan (``buffer``): back among the spares when :meth:`end` is called, or
+    when the lease is dropped unended (a forward whose outputs never reach the loss, so that no backward comes)."""
+
+    def __init__(self, stashes: Stashes, buffer: np.ndarray):
+        self.stashes, self.buffer = stashes, buffer
+
+    def end(self) -> None:
+        if self.buffer is not None:
+            self.stashes.give(self.buffer)
+            self.buffer = None
+
+    __del__ = end
 
 
 def _host(x: Float) -> np.ndarray:
@@ -136,13 +153,12 @@ class NativeMLP(dr.CustomOp):
         self.dims = (*arch, len(X), len(Dd))
         sigma, rgb = np.empty(M, np.float32), np.empty(3 * M, np.float32)
         with _cores_to_the_kernel():
-            self.stash = None
+            self.lease = None
             if any(need):                       # a backward will follow: keep the activations if they fit
                 floats = library().mlp_stash_floats(*self.dims, M)
-                self.stash = stashes.take(floats) if 0 < 4 * floats <= STASH_BYTES else None
-                self.stashes = stashes
+                self.lease = stashes.take(floats) if 0 < 4 * floats <= STASH_BYTES else None
             failed = library().mlp_forward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), M, _ptr(sigma),
-                                           _ptr(rgb), _ptr(self.stash))
+                                           _ptr(rgb), _ptr(self.lease and self.lease.buffer))
         if failed:
             raise RuntimeError(f"the native MLP does not support {self.dims}")
         return Float(sigma), [Float(rgb[k::3]) for k in range(3)]
@@ -156,11 +172,14 @@ class NativeMLP(dr.CustomOp):
         dX = np.empty(self.M * C, np.float32) if self.need[0] else None
         dD = np.empty(self.M * Cd, np.float32) if self.need[1] and Cd else None
         with _cores_to_the_kernel():
-            library().mlp_backward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), self.M, _ptr(ds), _ptr(dc),
-                                   _ptr(grad), _ptr(dX), _ptr(dD), _ptr(self.stash))
-        if self.stash is not None:                          # spent: the backward overwrote it with gradients
-            self.stashes.give(self.stash)
-            self.stash = None
+            failed = library().mlp_backward(*self.dims, _ptr(self.W), _ptr(self.X), _ptr(self.Dd), self.M, _ptr(ds),
+                                            _ptr(dc), _ptr(grad), _ptr(dX), _ptr(dD),
+                                            _ptr(self.lease and self.lease.buffer))
+        if self.lease is not None:                          # spent: the backward overwrote it with gradients
+            self.lease.end()
+            self.lease = None
+        if failed:
+            raise RuntimeError(f"the native MLP's backward refused its stash for {self.dims}")
         self.set_grad_in("weights", Float(grad))
         if dX is not None:
             self.set_grad_in("X", [Float(dX[c::C]) for c in range(C)])

@@ -829,11 +829,11 @@ typedef struct {
     float *C0, *dXs, *dDs, *Xp, *Dp, *dsp, *drp, *so, *ro, *grad;
 } scr_t;
 
-/* want: bit 0 the gradient w.r.t. X, bit 1 the one w.r.t. Dd */
-static size_t layout_scratch(const plan_t* P, long T, int backward, int want, scr_t* S, float* base) {
+/* want: bit 0 the gradient w.r.t. X, bit 1 the one w.r.t. Dd; stashed: the backward's activations are in a stash */
+static size_t layout_scratch(const plan_t* P, long T, int backward, int want, int stashed, scr_t* S, float* base) {
     size_t o = 0;
 #define SUB(ptr, n) do { if (base) ptr = base + o; o += rup((n), 16) + 16; } while (0)
-    int nH = backward ? P->D : 2;
+    int nH = backward ? (stashed ? 0 : P->D) : 2;
     for (int l = 0; l < nH; l++) SUB(S->H[l], T * P->Wp);
     SUB(S->C0, T * P->W2p);
     if (want & 1) SUB(S->dXs, T * P->Cinp);
@@ -1086,7 +1086,7 @@ static void forward_body(team_t* team, int tid) {
     const int C_in = P->Cin, C_dir = P->Cdir;
     if (c->need_prep) team_units(team, &c->prep_counter, P->D + 1, prep_one, c);
     scr_t S;
-    layout_scratch(P, T, 0, 0, &S, thread_scratch(tid, c->nscr));
+    layout_scratch(P, T, 0, 0, 0, &S, thread_scratch(tid, c->nscr));
     float* Hs[MAXD];
     float* C0s = S.C0;
     long it = __atomic_fetch_add(&c->tile_counter, 1, __ATOMIC_RELAXED);
@@ -1138,7 +1138,7 @@ int mlp_forward(int D, int W, int skip, int C_in, int C_dir, const float* params
         memcpy(stash, &c.T, sizeof c.T);
     }
     scr_t S0;
-    c.nscr = layout_scratch(&c.P, c.T, 0, 0, &S0, NULL);
+    c.nscr = layout_scratch(&c.P, c.T, 0, 0, 0, &S0, NULL);
     team_run(forward_body, &c, opt_threads);
     return 0;
 }
@@ -1150,7 +1150,7 @@ static void backward_body(team_t* team, int tid) {
     const long M = c->M, T = c->T, ntiles = c->ntiles;
     const int C_in = P->Cin, C_dir = P->Cdir, want_dx = c->want_dx, want_dd = c->want_dd;
     scr_t S;
-    layout_scratch(P, T, 1, want_dx | 2 * want_dd, &S, thread_scratch(tid, c->nscr));
+    layout_scratch(P, T, 1, want_dx | 2 * want_dd, c->stash != NULL, &S, thread_scratch(tid, c->nscr));
     memset(S.grad, 0, sizeof(float) * P->ngrad);
     c->gthr[tid] = S.grad;
     if (tid == 0) c->nth = team->nth;
@@ -1215,12 +1215,13 @@ int mlp_backward(int D, int W, int skip, int C_in, int C_dir, const float* param
     if (stash) { /* the forward's tiles, whatever the threads now */
         c.stash = stash;
         memcpy(&c.T, stash, sizeof c.T);
+        if (c.T < TMULT || c.T % TMULT) return -1; /* not a stash of mlp_forward */
     }
     c.ntiles = (M + c.T - 1) / c.T;
     c.want_dx = dX != NULL;
     c.want_dd = dDd != NULL && C_dir > 0;
     scr_t S0;
-    c.nscr = layout_scratch(&c.P, c.T, 1, c.want_dx | 2 * c.want_dd, &S0, NULL);
+    c.nscr = layout_scratch(&c.P, c.T, 1, c.want_dx | 2 * c.want_dd, stash != NULL, &S0, NULL);
     team_run(backward_body, &c, opt_threads);
     return 0;
 }
