@@ -30,8 +30,8 @@ STASH_BYTES = 1 << 30
 """Bytes up to which a forward that a backward will follow keeps its activations (the trunk's and the colour
 layer's: ``(depth * width + width / 2) * 4`` bytes per sample) for that backward, which then skips recomputing them;
 above it the backward recomputes. Each field keeps up to two spare stashes between steps (:class:`Stashes`), so a
-field may hold about 2.25 x this in all. ``benchmarks/step_time.py`` times the MLP both ways (``native`` against ``native recomputing``, and
-their ratio ``stash_speedup``)."""
+field may hold about 2.25 x this in all. ``benchmarks/step_time.py`` times the MLP both ways (``native`` against
+``native recomputing``, and their ratio ``stash_speedup``)."""
 _F = ctypes.POINTER(ctypes.c_float)
 
 
