@@ -3,11 +3,7 @@
 from __future__ import annotations
 
 import ctypes
-import os
-import shutil
 import statistics
-import subprocess
-import tempfile
 import time
 from pathlib import Path
 
@@ -17,6 +13,7 @@ import numpy as np
 import mitnerf
 from mitnerf.data.cache import cached_dataset
 from mitnerf.data.rig import RigConfig, noise_preset
+from mitnerf.fields.native import compiled
 from mitnerf.train.engines import make_backend
 from mitnerf.train.config import TrainConfig
 
@@ -73,15 +70,12 @@ def alternate(backends: dict, rounds: int, warmup: int = 3) -> dict:
 
 def fma_peak(threads: int = 2, rounds: int = 5) -> float:
     """This CPU's fp32 arithmetic ceiling in GFLOP/s on ``threads`` threads: fused multiply-adds on registers only
-    (``fma_peak.c``, built here with the C compiler for this CPU), the best of ``rounds``. A GEMM library's peak
-    can fall short of it (the 2048^3 GEMMs of ``step_time.py`` do on some AMD EPYCs); no kernel can beat it."""
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
+    (``fma_peak.c``, built for this CPU by :func:`mitnerf.fields.native.compiled`), the best of ``rounds``. A GEMM
+    library's peak can fall short of it (the 2048^3 GEMMs of ``step_time.py`` do on some AMD EPYCs); no kernel can
+    beat it."""
+    lib = compiled(Path(__file__).with_name("fma_peak.c"), "fma_peak", ("-ffp-contract=fast",))
+    if lib is None:
         raise SystemExit("the FMA ceiling needs a C compiler (cc, gcc or $CC): install one")
-    with tempfile.TemporaryDirectory() as tmp:
-        lib = Path(tmp) / "libfma.so"
-        subprocess.run([cc, "-O3", "-march=native", "-ffp-contract=fast", "-pthread", "-shared", "-fPIC",
-                        str(Path(__file__).with_name("fma_peak.c")), "-o", str(lib)], check=True, capture_output=True)
-        fma = ctypes.CDLL(str(lib)).fma_gflops
+    fma = lib.fma_gflops
     fma.argtypes, fma.restype = [ctypes.c_int, ctypes.c_long], ctypes.c_double
     return max(fma(threads, 20_000_000) for _ in range(rounds))

@@ -1,7 +1,8 @@
 /* The fp32 arithmetic ceiling of this CPU: every thread runs fused multiply-adds on registers only
  * (ACC independent vector accumulators, enough to hide the FMA latency on every x86 core we know,
  * and few enough to stay in the vector registers), so nothing but the FMA units limits it. Built by
- * benchmarks/_common.py (fma_peak) with cc -O3 -march=native -pthread: 16 accumulators of 16 floats
+ * benchmarks/_common.py (fma_peak, through mitnerf.fields.native.compiled: -O3 -march=native
+ * -ffp-contract=fast): 16 accumulators of 16 floats
  * where AVX-512 is (32 registers), else 12 of 8 floats (16 registers).
  *
  *   double fma_gflops(int threads, long iterations)   -> GFLOP/s over all threads (2 FLOPs per FMA lane)

@@ -35,27 +35,35 @@ field may hold about 2.25 x this in all. ``benchmarks/step_time.py`` times the M
 _F = ctypes.POINTER(ctypes.c_float)
 
 
-@functools.lru_cache(maxsize=None)
-def library():
-    """The compiled kernel (``ctypes.CDLL``), or None where it cannot be built. It is cached in
-    ``$MITNERF_CACHE/native/`` under a name that hashes the source, the compiler and the CPU's
-    flags, so machines sharing a cache never load each other's builds."""
+def compiled(source: Path, name: str, flags: tuple = ()) -> ctypes.CDLL | None:
+    """The C file ``source`` built for this CPU (``-O3 -march=native -pthread``, then ``flags``) as a shared library,
+    or None where no compiler (cc, gcc or ``$CC``) builds it. It is cached in ``$MITNERF_CACHE/native/`` under
+    ``name`` and a hash of the source, the flags, the compiler and the CPU's flags, so machines sharing a cache
+    never load each other's builds."""
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-    if cc is None or not SOURCE.exists():
+    if cc is None or not source.exists():
         return None
-    flags = ""
+    cpu = ""
     with contextlib.suppress(OSError):
-        flags = next((line for line in Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("flags")), "")
+        cpu = next((line for line in Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("flags")), "")
 
     def build(tmp: Path) -> None:
-        subprocess.run([cc, "-O3", "-march=native", "-pthread", "-shared", "-fPIC", str(SOURCE), "-o",
-                        str(tmp / "libmlp.so")], check=True, capture_output=True, timeout=300)
+        subprocess.run([cc, "-O3", "-march=native", "-pthread", *flags, "-shared", "-fPIC", str(source), "-o",
+                        str(tmp / f"lib{name}.so")], check=True, capture_output=True, timeout=300)
 
     try:
         version = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30).stdout
-        key = hashlib.sha1(SOURCE.read_bytes() + version.encode() + flags.encode()).hexdigest()[:16]
-        lib = ctypes.CDLL(str(cache_entry(f"native/mlp-{key}", build) / "libmlp.so"))
+        key = hashlib.sha1(source.read_bytes() + " ".join(flags).encode() + version.encode() + cpu.encode())
+        return ctypes.CDLL(str(cache_entry(f"native/{name}-{key.hexdigest()[:16]}", build) / f"lib{name}.so"))
     except (OSError, subprocess.SubprocessError):
+        return None
+
+
+@functools.lru_cache(maxsize=None)
+def library():
+    """The compiled kernel (``ctypes.CDLL``, :func:`compiled`), or None where it cannot be built."""
+    lib = compiled(SOURCE, "mlp")
+    if lib is None:
         return None
     L, I = ctypes.c_long, ctypes.c_int
     lib.mlp_forward.argtypes = [I, I, I, I, I, _F, _F, _F, L, _F, _F, _F]
