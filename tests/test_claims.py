@@ -220,7 +220,8 @@ def test_document_from_recorded_rows(tmp_path):
     from mitnerf.experiments.window_shop import Config
 
     path = tmp_path / "results.json"
-    record("window-shop", Config(), table2_rows(), 600.0, "mitnerf experiment window-shop --out x", path=path)
+    record("window-shop", Config(lr_decay=True), table2_rows(), 600.0, "mitnerf experiment window-shop --out x",
+           path=path)
     added = {"object": "lego", "table": "additions", "row": "7, no frequency window", "images": 5, "psnr": 17.3,
              "ssim": 0.7, "steps": 2000, "train_time": 54.0, "status": "ok"}
     record("window-shop", Config(data="lego.npz", few_views=10), table2_rows("lego", 1.0) + [added], 600.0,
@@ -232,6 +233,7 @@ def test_document_from_recorded_rows(tmp_path):
     assert "| 8 | 5 | 6 | 128 | on | 15.0 | 16.00 / 0.800 |" in mine
     assert "| 7, no frequency window | lego | 5 | 17.30 |" in mine
     assert "rows of at most 10 images with FreeNeRF's frequency window over 1000 steps" in mine
+    assert "a constant learning rate" in mine and "decaying as the recipe's" in text.split(mine)[0]   # each run's
     assert "mitnerf experiment window-shop --out x" in text
     assert "not run (`mitnerf experiment pe`)" in text
     quoted = re.findall(r'"([^"|]{12,})"', text)

@@ -68,6 +68,7 @@ def test_window_shop_on_the_reports_own_data(tmp_path):
     from mitnerf.errors import DataError
     from mitnerf.experiments import window_shop
     from mitnerf.scenes.registry import get_scene
+    from mitnerf.train.recipes import get_recipe
 
     ds = make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=100, n_val=2, n_test=4, resolution=8), progress=False)
     npz = save_dataset(ds, tmp_path / "lego.npz", "tiny_nerf")
@@ -75,8 +76,12 @@ def test_window_shop_on_the_reports_own_data(tmp_path):
     cfg.data, cfg.additions, cfg.few_views, cfg.pe_window = str(npz), False, 5, 20
     args = [window_shop.nerf_recipe(cfg, n, 6, 64, True, steps=k).model.field_args for n, k in ((5, 2), (25, 1))]
     assert args[0]["pe_window"] == 40 and "pe_window" not in args[1]       # the few-view rows' window, per step
+    flat, decays = (window_shop.nerf_recipe(cfg, 5, 6, 64, True, lr_decay=d).train for d in (False, True))
+    assert flat.lr_final == flat.lr == decays.lr                             # constant: the report's schedule
+    assert decays.lr_final == get_recipe("vanilla-3d").train.lr_final < flat.lr
     rows = window_shop.run(cfg, tmp_path / "out")
-    assert [r["row"] for r in rows] == ["7", "8"] and all(np.isfinite(r["psnr_ours"]) for r in rows)
+    assert [r["row"] for r in rows] == ["7", "8"]
+    assert all(np.isfinite(r["psnr_ours"]) and np.isfinite(r["psnr_pool"]) for r in rows)    # the validation too
     report = (tmp_path / "out" / "report.md").read_text()
     assert "view 101" in report and "frequencies over the first 20 steps" in report
     few = type(ds)({"train": ds["train"].subset(slice(0, 20)), "val": ds["val"], "test": ds["test"]}, ds.near, ds.far)
@@ -98,14 +103,20 @@ def test_window_shop_additions_count_the_views_a_file_has(tmp_path, monkeypatch)
     from mitnerf.scenes.registry import get_scene
 
     ds = make_dataset(get_scene("vase"), RigConfig(dim=3, n_train=100, n_val=2, n_test=4, resolution=4), progress=False)
-    seen, cameras = [], {}
+    seen, cameras, flat, scored = [], {}, {}, {}
 
     def fake_row(data, recipe, labels, **_):             # no training: what each row would train on
         seen.append((labels["row"], len(data["train"]), recipe.model.field_args.get("pe_window", 0)))
         cameras[labels["row"]] = data["train"].cameras.origins
+        if recipe.name.startswith("vanilla-3d"):          # the report's NeRF (the grid rows keep their recipes')
+            flat[labels["row"]] = recipe.train.lr_final == recipe.train.lr
         assert labels["images"] == len(data["train"]) and isinstance(labels["images"], int)
         rec = SimpleNamespace(psnr=20.0, ssim=0.5, renders=None)
-        return {**labels, "psnr": 20.0}, SimpleNamespace(record=lambda *a, **k: rec), rec
+
+        def record(test, **_):
+            scored.setdefault(labels["row"], []).append(test["test"].cameras.origins)
+            return rec
+        return {**labels, "psnr": 20.0}, SimpleNamespace(record=record), rec
 
     monkeypatch.setattr(window_shop, "train_row", fake_row)
     monkeypatch.setattr(window_shop, "_draw", lambda *a: None)
@@ -124,6 +135,21 @@ def test_window_shop_additions_count_the_views_a_file_has(tmp_path, monkeypatch)
     assert cameras[window_shop.NEAREST].tolist() != cameras["7"].tolist()            # not the first 5
     report = (tmp_path / "out" / "report.md").read_text()
     assert "| held-out PSNR |" in report and "trains on the 5 seen from closest to view 101" in report
+    # a constant rate in every NeRF row but the additions' one that decays; the validation on 12 unused photos
+    assert [label for label, f in flat.items() if not f] == ["6, decaying learning rate"]
+    assert "| unused pool PSNR |" in report and "a constant learning rate" in report
+    unused = window_shop.unused_views(100, range(5), 12)                     # row 7 trains on the first 5
+    assert scored["7"][-1].tolist() == pool["train"].cameras.origins[unused].tolist()
+    assert len(scored["grid-3d recipe, 100 images"]) == 1              # held-out views only: no photo is unused
+
+
+def test_unused_views_spread_evenly_over_the_photos_a_row_leaves():
+    """By hand: of 10 photos, a row trains on 0, 1, 2; the rest are 3..9."""
+    from mitnerf.experiments import window_shop
+
+    assert window_shop.unused_views(10, [0, 1, 2], 3).tolist() == [3, 6, 9]          # first, middle, last of 3..9
+    assert window_shop.unused_views(10, [0, 5], 20).tolist() == [1, 2, 3, 4, 6, 7, 8, 9]    # fewer left: all
+    assert window_shop.unused_views(4, range(4), 3).tolist() == [] and window_shop.unused_views(9, [], 0).size == 0
 
 
 def test_nearest_views_are_the_cameras_closest_in_direction_to_the_target():

@@ -18,13 +18,13 @@ from ..viz.panels import series_figure
 from . import EXPERIMENTS
 from .claims import CLAIMS, SOURCES, claims_table, verdict
 from .report import markdown_table
-from .window_shop import PICKED, tables
+from .window_shop import PICKED, lr_words, tables
 
 REPRODUCE = ("pe", "depth", "pixelnerf", "window-shop")
 """The experiments that test the reports' claims (``mitnerf experiment all``)."""
 
 KEEP = ("psnr", "ssim", "iou", "depth_error", "chamfer", "train_time", "steps", "status", "reason", "psnr_ours",
-        "ssim_ours")
+        "ssim_ours", "psnr_pool", "ssim_pool")
 BUDGETS = {
     "pe": lambda c: f"{c.steps} steps per run, {len(c.Ls)} L x {c.seeds} seeds",
     "depth": lambda c: (f"{c.steps} steps of {c.batch_rays} rays, {len(c.scenes)} scenes x {len(c.views)} view counts "
@@ -109,9 +109,11 @@ def document(results: dict, figure_name: str | None, command: str) -> str:
         parts += [f"## {title}\n", f"Deviations in every row: {shared}.\n",
                   claims_table([c for c in CLAIMS if c.source == source], lambda name: rows_of(results, name))]
         if source == "window-shop":
+            ours = results.get("experiment/window-shop", {}).get("config", {})
             parts += ["### Table 2, row for row\n", "Their Table 1 combinations at 2000 iterations with their "
                       "Table 2 PSNR, beside ours on each object (the same wall-clock budget per row, and the same "
-                      "2000 steps where the budget affords them).\n", *tables(rows_of(results, "window-shop") or [])]
+                      f"2000 steps where the budget affords them; {lr_words(ours)}).\n",
+                      *tables(rows_of(results, "window-shop") or [])]
             for key in sorted(k for k in results if k.startswith("experiment/window-shop/")):
                 e, rows = results[key], results[key]["values"]["rows"]
                 table, additions = tables(rows)
@@ -123,7 +125,7 @@ def document(results: dict, figure_name: str | None, command: str) -> str:
                 title = "the report's own data" if own else "our objects"
                 parts += [f"### Table 2 on {title}: {key.rsplit('/', 1)[1]}\n",
                           f"`{e['command']}` ({e.get('budget', '')}; {machine_line(e['machine'])}, {e['date']}). "
-                          f"Trained on {where}, {scored}.\n", table]
+                          f"Trained on {where}, {scored}; {lr_words(config)}.\n", table]
                 if any(not r["row"].isdigit() for r in rows):
                     parts += ["\n" + additions + ("\n\n(PSNR and SSIM on view 101.)" if own else "")]
     return "\n".join(parts)

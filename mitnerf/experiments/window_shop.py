@@ -9,6 +9,7 @@ row with the same time budget and at most ``iters`` steps. Writes ``results.csv`
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -77,6 +78,14 @@ class Config:
     """The few-view rows' window (half the report's 2000 iterations); a row with more steps scales it alike."""
     iters: int = setting(2000, lo=1, hi=10 ** 9)
     """Steps per row at most (the report's)."""
+    lr_decay: bool = setting(False)
+    """Decay each row's learning rate over its budget as the ``vanilla-3d`` recipe does (to its ``lr_final``); off:
+    the recipe's ``lr`` throughout, the report's schedule: NeRF's tenfold decay over 250,000 steps lowers its rate by
+    2 % in 2000 iterations. A file's rows are also scored on pool views they do not train on (``pool_scored``), the
+    check of this choice that leaves every test view alone; the additions table runs row 6 the other way."""
+    pool_scored: int = setting(12, lo=0, hi=100_000)
+    """With a file's data, each row is also scored on this many of the pool's photos it does not train on, evenly
+    spread over them (a validation: neither view 101 nor the held-out views); 0: none."""
     batch_rays: int = setting(1024, lo=1, hi=1 << 22)
     """Rays per step."""
     time_budget: float = setting(120.0, lo=0, above=True, hi=10 ** 7)
@@ -104,12 +113,15 @@ def _recipe(name: str, cfg: Config, steps: int = 1, **settings):
 def nerf_recipe(cfg: Config, images: int, L: int, n_coarse: int, vd: bool, n_fine: int = 0, steps: int = 1,
                 **arch):
     """The report's NeRF for ``images`` at (L, N_c, view dependence), with the frequency window where the images are
-    few (``cfg.few_views``); ``steps`` times the steps and budget; ``arch``: MLP settings."""
+    few (``cfg.few_views``) and the learning rate of ``cfg.lr_decay``; ``steps`` times the steps and budget;
+    ``arch``: MLP settings (and ``lr_decay``, this row's own)."""
+    lr_decay = arch.pop("lr_decay", cfg.lr_decay)
     if images <= cfg.few_views:
         arch = {"pe_window": steps * cfg.pe_window, **arch}
-    return _recipe("vanilla-3d", cfg, steps, **{**ARCHITECTURES[cfg.architecture], **arch}, pos_L=L,
-                   n_coarse=n_coarse, n_fine=n_fine, view_dependent=vd, iters=steps * cfg.iters,
-                   batch_rays=cfg.batch_rays)
+    recipe = _recipe("vanilla-3d", cfg, steps, **{**ARCHITECTURES[cfg.architecture], **arch}, pos_L=L,
+                     n_coarse=n_coarse, n_fine=n_fine, view_dependent=vd, iters=steps * cfg.iters,
+                     batch_rays=cfg.batch_rays)
+    return recipe if lr_decay else recipe.override(lr_final=recipe.train.lr)
 
 
 def unit_directions(origins) -> np.ndarray:
@@ -146,13 +158,29 @@ def nearest_views(origins: np.ndarray, target: np.ndarray, n: int) -> np.ndarray
     return np.argsort(-(unit_directions(origins) @ unit_directions(target)), kind="stable")[:max(0, int(n))]
 
 
+def training_indices(cfg: Config, pool: Split, n) -> np.ndarray:
+    """Indices of the ``n`` photos of ``pool`` a row trains on (``cfg.pick``), or ``n`` itself (an array)."""
+    if not np.isscalar(n):
+        return np.asarray(n, np.int64)
+    if cfg.pick == "spread":
+        return spread_views(pool.cameras.origins, n)
+    return np.arange(min(int(n), len(pool)), dtype=np.int64)
+
+
 def training_views(cfg: Config, pool: Split, n) -> Split:
     """The ``n`` photos of ``pool`` a row trains on (``cfg.pick``), or those at the indices ``n`` (an array)."""
-    if not np.isscalar(n):
-        return pool.subset(np.asarray(n))
-    if cfg.pick == "spread":
-        return pool.subset(spread_views(pool.cameras.origins, n))
-    return pool.subset(slice(0, n))
+    return pool.subset(training_indices(cfg, pool, n))
+
+
+def unused_views(size: int, taken, n: int) -> np.ndarray:
+    """``n`` of the indices below ``size`` not in ``taken``, evenly spread over them (all where fewer remain)::
+
+        unused_views(10, [0, 1, 2], 3)    # [3, 6, 9]: of 3..9, the first, the middle and the last
+    """
+    rest = np.setdiff1d(np.arange(size), np.asarray(taken, np.int64))
+    if n <= 0 or len(rest) == 0:
+        return np.zeros(0, np.int64)
+    return rest[np.unique(np.round(np.linspace(0, len(rest) - 1, min(n, len(rest)))).astype(np.int64))]
 
 
 def panels(rows: list[dict]) -> list[dict]:
@@ -190,6 +218,8 @@ def run(cfg: Config, out: Path) -> list[dict]:
             windowed = cfg.few_views >= 5                     # row 7 has the window: its addition has none
             jobs += [("9, twice the steps", "additions", 5, nerf_recipe(cfg, 5, 10, 64, True, steps=2)),
                      ("6, view dependence on", "additions", 10, nerf_recipe(cfg, 10, 6, 64, True)),
+                     ("6, constant learning rate" if cfg.lr_decay else "6, decaying learning rate", "additions", 10,
+                      nerf_recipe(cfg, 10, 6, 64, False, lr_decay=not cfg.lr_decay)),
                      ("7, four direction frequencies", "additions", 5, nerf_recipe(cfg, 5, 6, 64, True, dir_L=4)),
                      ("7, no frequency window" if windowed else "7, frequency window", "additions", 5,
                       nerf_recipe(cfg, 5, 6, 64, True, pe_window=0 if windowed else cfg.pe_window))]
@@ -203,14 +233,19 @@ def run(cfg: Config, out: Path) -> list[dict]:
                 jobs.append((NEAREST, "additions", near, nerf_recipe(cfg, 5, 6, 64, True)))
         for label, table, views, recipe in jobs:
             first, *more = tests
-            data = Dataset({"train": training_views(cfg, ds["train"], views), "test": tests[first]}, ds.near, ds.far,
-                           dict(ds.meta))
+            taken = training_indices(cfg, ds["train"], views)
+            data = Dataset({"train": ds["train"].subset(taken), "test": tests[first]}, ds.near, ds.far, dict(ds.meta))
             row, run, rec = train_row(data, recipe.override(background=ds.background),
                                       {"object": obj, "table": table, "row": label, "images": len(data["train"])})
             for protocol in more:                      # the same model on the other protocol's test views
                 other = run.record(Dataset({"test": tests[protocol]}, ds.near, ds.far, dict(ds.meta)),
                                    geometry_metrics=False)
                 row.update({f"psnr_{protocol}": other.psnr, f"ssim_{protocol}": other.ssim})
+            unused = unused_views(len(ds["train"]), taken, cfg.pool_scored) if "report" in tests else []
+            if len(unused):                            # a validation: pool photos this row does not train on
+                val = run.record(Dataset({"test": ds["train"].subset(unused)}, ds.near, ds.far, dict(ds.meta)),
+                                 geometry_metrics=False)
+                row.update(psnr_pool=val.psnr, ssim_pool=val.ssim)
             if table == "report":
                 _, L, nc, vd, theirs = COMBINATIONS[int(label)]
                 row.update(L=L, N_c=nc, view_dependence=vd, report_psnr=theirs)
@@ -243,14 +278,24 @@ def tables(rows: list[dict]) -> tuple[str, str]:
             row[f"{obj} {'view 101' if two else 'PSNR / SSIM'}"] = score
             if two:
                 row[f"{obj} held-out views"] = f"{_f(r.get('psnr_ours'), '.2f')} / {_f(r.get('ssim_ours'), '.3f')}"
+            if any("psnr_pool" in x for x in rs.values()):
+                row[f"{obj} unused pool views"] = _f(r.get("psnr_pool"), ".2f")
             row[f"{obj} steps, s"] = f"{_f(r.get('steps'), '.0f')}, {_f(r.get('train_time'), '.0f')}"
         table.append(row)
     held = any("psnr_ours" in r for rs in objs.values() for r in rs.values())     # the report's data: 2 tests
+    pool = any("psnr_pool" in r for rs in objs.values() for r in rs.values())
     add = [{"row": label, "object": obj, "images": r.get("images"), "PSNR": _f(r.get("psnr"), ".2f"),
             "SSIM": _f(r.get("ssim"), ".3f"), **({"held-out PSNR": _f(r.get("psnr_ours"), ".2f")} if held else {}),
+            **({"unused pool PSNR": _f(r.get("psnr_pool"), ".2f")} if pool else {}),
             "Chamfer": _f(r.get("chamfer"), ".4f"), "steps": r.get("steps"), "train s": _f(r.get("train_time"), ".0f")}
            for obj, rs in objs.items() for label, r in rs.items() if not label.isdigit()]
     return markdown_table(table), "Our additions:\n\n" + markdown_table(add)
+
+
+def lr_words(config: dict) -> str:
+    """The rows' learning-rate schedule in words, from a run's config (``lr_decay``; a record without it decayed)."""
+    return ("the learning rate decaying as the recipe's" if config.get("lr_decay", True)
+            else "a constant learning rate (NeRF's over 2000 iterations)")
 
 
 def _write(cfg: Config, rows: list[dict], out: Path) -> None:
@@ -258,7 +303,8 @@ def _write(cfg: Config, rows: list[dict], out: Path) -> None:
     n_images = PICKED[cfg.pick]
     data = (f"The report's own data, {cfg.data}: N images = {n_images} of its first 100 views; each row is scored by "
             "the report's protocol (view 101) and by ours (every held-out view, 100 to 105); the additions' row "
-            f"\"{NEAREST}\" trains on the 5 seen from closest to view 101." if cfg.data else
+            f"\"{NEAREST}\" trains on the 5 seen from closest to view 101. Unused pool views: the validation, "
+            f"{cfg.pool_scored} of the first 100 views the row does not train on, evenly spread." if cfg.data else
             f"Objects {', '.join(cfg.objects)}, {cfg.resolution} x {cfg.resolution} photos (random, noisy, upper "
             f"hemisphere; N images = {n_images} of one pool), {cfg.test_views} test views on the 360 degree orbit.")
     few = (f"rows of at most {cfg.few_views} images open their positional encoding's frequencies over the first "
@@ -268,7 +314,7 @@ def _write(cfg: Config, rows: list[dict], out: Path) -> None:
         ("Set-up", f"{data} NeRF: recipe `vanilla-3d` with the {cfg.architecture} MLP ({arch['depth']} x "
                    f"{arch['width']}, skip into layer {arch['skip']}, {arch['dir_L']} direction frequencies), no fine "
                    f"pass; every row at most {cfg.iters} steps of {cfg.batch_rays} rays and {cfg.time_budget:g} s; "
-                   f"{few}. "
+                   f"{few}; {lr_words(dataclasses.asdict(cfg))}. "
                    f"Deviations from the report: {'' if cfg.data else 'our objects (not the tiny-NeRF Lego), '}CPU "
                    "(2 cores) instead of a GPU, a time cap per row."),
         ("The report's combinations", table),
