@@ -9,7 +9,6 @@ row with the same time budget and at most ``iters`` steps. Writes ``results.csv`
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -167,11 +166,6 @@ def training_indices(cfg: Config, pool: Split, n) -> np.ndarray:
     return np.arange(min(int(n), len(pool)), dtype=np.int64)
 
 
-def training_views(cfg: Config, pool: Split, n) -> Split:
-    """The ``n`` photos of ``pool`` a row trains on (``cfg.pick``), or those at the indices ``n`` (an array)."""
-    return pool.subset(training_indices(cfg, pool, n))
-
-
 def unused_views(size: int, taken, n: int) -> np.ndarray:
     """``n`` of the indices below ``size`` not in ``taken``, evenly spread over them (all where fewer remain)::
 
@@ -237,15 +231,11 @@ def run(cfg: Config, out: Path) -> list[dict]:
             data = Dataset({"train": ds["train"].subset(taken), "test": tests[first]}, ds.near, ds.far, dict(ds.meta))
             row, run, rec = train_row(data, recipe.override(background=ds.background),
                                       {"object": obj, "table": table, "row": label, "images": len(data["train"])})
-            for protocol in more:                      # the same model on the other protocol's test views
-                other = run.record(Dataset({"test": tests[protocol]}, ds.near, ds.far, dict(ds.meta)),
-                                   geometry_metrics=False)
-                row.update({f"psnr_{protocol}": other.psnr, f"ssim_{protocol}": other.ssim})
             unused = unused_views(len(ds["train"]), taken, cfg.pool_scored) if "report" in tests else []
-            if len(unused):                            # a validation: pool photos this row does not train on
-                val = run.record(Dataset({"test": ds["train"].subset(unused)}, ds.near, ds.far, dict(ds.meta)),
-                                 geometry_metrics=False)
-                row.update(psnr_pool=val.psnr, ssim_pool=val.ssim)
+            others = {p: tests[p] for p in more} | ({"pool": ds["train"].subset(unused)} if len(unused) else {})
+            for protocol, split in others.items():     # the same model on the other test views and the validation
+                other = run.record(Dataset({"test": split}, ds.near, ds.far, dict(ds.meta)), geometry_metrics=False)
+                row.update({f"psnr_{protocol}": other.psnr, f"ssim_{protocol}": other.ssim})
             if table == "report":
                 _, L, nc, vd, theirs = COMBINATIONS[int(label)]
                 row.update(L=L, N_c=nc, view_dependence=vd, report_psnr=theirs)
@@ -314,7 +304,7 @@ def _write(cfg: Config, rows: list[dict], out: Path) -> None:
         ("Set-up", f"{data} NeRF: recipe `vanilla-3d` with the {cfg.architecture} MLP ({arch['depth']} x "
                    f"{arch['width']}, skip into layer {arch['skip']}, {arch['dir_L']} direction frequencies), no fine "
                    f"pass; every row at most {cfg.iters} steps of {cfg.batch_rays} rays and {cfg.time_budget:g} s; "
-                   f"{few}; {lr_words(dataclasses.asdict(cfg))}. "
+                   f"{few}; {lr_words(vars(cfg))}. "
                    f"Deviations from the report: {'' if cfg.data else 'our objects (not the tiny-NeRF Lego), '}CPU "
                    "(2 cores) instead of a GPU, a time cap per row."),
         ("The report's combinations", table),
